@@ -1,0 +1,51 @@
+// Level: one resolution of one body, the unit the scheduler steps. Structure of arrays, one
+// contiguous 64-byte-aligned array per component. A body with one level is simply L = 0.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "pliant/aligned.hpp"
+#include "pliant/defs.hpp"
+#include "pliant/kernels/node_passes.hpp"
+
+namespace pliant {
+
+template <class T>
+struct Level {
+  // ---- nodes ----
+  std::size_t node_count = 0;
+  AlignedVector<T> X[3];        // rest positions (m)
+  AlignedVector<T> x[3];        // positions (m)
+  AlignedVector<T> v[3];        // velocities (m/s)
+  AlignedVector<T> f[3];        // total internal + external force of the last step (N); on fixed nodes, the reaction
+  AlignedVector<T> inv_mass;    // 1/kg, 0 on fixed nodes
+  AlignedVector<T> mass;        // lumped mass rho V / 4 per incident tet (kg)
+  std::vector<std::uint8_t> state;  // NodeStateCode
+  AlignedVector<T> external[3];     // constant nodal loads (N); empty when the body has none
+
+  // ---- tetrahedra ----
+  std::size_t tet_count = 0;
+  std::vector<std::int32_t> tet[4];  // corner node indices, positive orientation at rest
+  AlignedVector<T> volume;           // rest volume (m^3)
+  AlignedVector<T> grad[9];          // rest gradients of phi_1..3 (1/m), rows of Dm^-1
+  AlignedVector<T> rotation[4];      // corotational: element rotation quaternion (w,x,y,z); empty otherwise
+  AlignedVector<T> corner_force[12]; // per-tet corner forces of the element pass (N)
+
+  // ---- incidence and surface ----
+  std::vector<std::int32_t> incidence_offsets;  // node_count + 1
+  std::vector<std::int32_t> incidence;          // 4 * tet + corner, sorted per node
+  std::vector<std::array<std::int32_t, 3>> boundary;  // outward boundary triangles
+
+  // ---- material and time ----
+  ForceModel model = ForceModel::corotational;
+  T lambda = 0, mu = 0;                       // Pa
+  T bulk_viscosity = 0, shear_viscosity = 0;  // Pa*s
+  T mass_damping = 0;                         // 1/s
+  T young = 0, stiffness_damping = 0;         // Pa, s (springs)
+  double min_altitude = 0;                    // m, smallest tet altitude at rest
+  double stable_dt = 0;                       // s, Courant bound of this level
+  int period = 1;                             // in fine ticks (multiresolution; 1 for L = 0)
+};
+
+}  // namespace pliant

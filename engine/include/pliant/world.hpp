@@ -1,0 +1,101 @@
+// World: the object a host application creates, fills with bodies, and steps from its own loop.
+// Precision (float or double) is chosen at creation; the arrays of every level are reachable
+// without copies through level<T>(). Errors come back as InputError / DivergenceError here, at
+// the API edge; nothing below this header throws during a step.
+#pragma once
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pliant/defs.hpp"
+#include "pliant/error.hpp"
+#include "pliant/level.hpp"
+#include "pliant/tet_mesh.hpp"
+
+namespace pliant {
+
+using BodyId = int;
+
+struct Energies {
+  double kinetic = 0;   // J, 1/2 sum m |v|^2
+  double elastic = 0;   // J, sum of element energies of the body's model
+  double potential = 0; // J, of gravity and constant nodal loads, relative to the rest state
+  double total() const { return kinetic + elastic + potential; }
+};
+
+class World {
+ public:
+  explicit World(const WorldDef& def = {});
+  ~World();
+  World(World&&) noexcept;
+  World& operator=(World&&) noexcept;
+
+  // Adds a body whose mesh is built from def.mesh (box, file, surface or implicit shape).
+  BodyId add_body(const BodyDef& def);
+  // Adds a body on a mesh the host made (def.mesh is ignored). The mesh is validated.
+  BodyId add_body(const BodyDef& def, TetMesh mesh);
+  // Attaches a probe to the material point at rest position def.point of body def.body.
+  int add_probe(const ProbeDef& def);
+
+  // Advances every body by dt() (in substeps() equal sub-steps when sub-stepping).
+  // Throws DivergenceError naming body, level, step and node if the state stops being finite.
+  void step();
+
+  double time() const;             // s
+  std::int64_t steps() const;      // calls of step() so far
+  double dt() const;               // s, the step of step()
+  double stable_dt() const;        // s, smallest Courant bound over all levels
+  int substeps() const;            // sub-steps per step()
+  Precision precision() const;
+  int threads() const;
+
+  std::size_t body_count() const;
+  BodyId find_body(std::string_view name) const;  // -1 if there is none
+  const BodyDef& body_def(BodyId body) const;
+  int level_count(BodyId body) const;
+  std::size_t node_count(BodyId body, int level = 0) const;
+  std::size_t tet_count(BodyId body, int level = 0) const;
+
+  // Zero-copy access to a level's arrays. T must match the world's precision (else InputError).
+  // Positions and velocities may be written between steps (initial conditions); sizes must not change.
+  template <class T>
+  Level<T>& level(BodyId body, int level = 0);
+  template <class T>
+  const Level<T>& level(BodyId body, int level = 0) const;
+
+  Vec3d node_position(BodyId body, std::size_t node, int level = 0) const;   // m
+  Vec3d node_rest_position(BodyId body, std::size_t node, int level = 0) const;
+
+  // The host takes over prescribed motion `motion` of a body: from the next step on, its nodes
+  // sit at rest position + offset (m), and their velocity is the offset's rate of change.
+  void set_motion_offset(BodyId body, int motion, const Vec3d& offset);
+
+  std::size_t probe_count() const;
+  const std::string& probe_name(int probe) const;
+  Vec3d probe_position(int probe) const;  // m, interpolated in the probe's tet
+
+  Energies energies() const;
+  double max_displacement() const;  // m, largest |x - X| over all nodes
+  // 64-bit FNV-1a hash of the bits of every position and velocity, in body and level order.
+  std::uint64_t state_hash() const;
+
+  // For result files: current positions (interleaved), tets, displacement and per-tet Cauchy
+  // stress (9 components, Pa) and von Mises stress (Pa) of one body's level.
+  struct Snapshot {
+    std::vector<double> points, displacement, stress, von_mises;
+    std::vector<Tet> tets;
+  };
+  Snapshot snapshot(BodyId body, int level = 0) const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Builds the tet mesh a MeshSourceDef describes (box, file, surface, implicit), then applies its
+// scale and translation.
+TetMesh build_mesh(const MeshSourceDef& source, MeshLoadReport* report = nullptr);
+
+}  // namespace pliant

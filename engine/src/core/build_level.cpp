@@ -1,0 +1,233 @@
+// From a validated TetMesh and a BodyDef to a ready-to-step Level: SoA arrays, rest gradients,
+// lumped masses, the node->tet incidence (CSR, sorted for a fixed gather order), boundary
+// triangles, node states from fixed/prescribed regions, constant loads and the stable step.
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "pliant/error.hpp"
+#include "pliant/kernels/element_forces.hpp"
+#include "pliant/mesh_quality.hpp"
+#include "simulation.hpp"
+
+namespace pliant::detail {
+namespace {
+
+std::string describe(const RegionDef& r) {
+  switch (r.kind) {
+    case RegionDef::Kind::box:
+      return fmt::format("box [{}, {}, {}]..[{}, {}, {}]", r.min[0], r.min[1], r.min[2], r.max[0], r.max[1], r.max[2]);
+    case RegionDef::Kind::sphere:
+      return fmt::format("sphere centre [{}, {}, {}] radius {}", r.center[0], r.center[1], r.center[2], r.radius);
+    case RegionDef::Kind::nodes: return fmt::format("{} listed nodes", r.nodes.size());
+  }
+  return "region";
+}
+
+// Nodes of the mesh inside a region (rest positions), with a tolerance of 1e-9 of the mesh size
+// so that a box face placed exactly on a mesh face selects it.
+std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, const std::string& what,
+                                       const std::string& body) {
+  std::vector<std::int32_t> out;
+  const std::size_t n = mesh.node_count();
+  if (r.kind == RegionDef::Kind::nodes) {
+    for (auto i : r.nodes) {
+      if (i < 0 || std::size_t(i) >= n)
+        throw InputError(fmt::format("body '{}': {}: node {} does not exist (the mesh has {} nodes)", body, what, i, n));
+      out.push_back(i);
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  } else {
+    Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (std::size_t i = 0; i < n; ++i)
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], mesh.points[3 * i + k]);
+        hi[k] = std::max(hi[k], mesh.points[3 * i + k]);
+      }
+    const double tol = 1e-9 * std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                        (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    for (std::size_t i = 0; i < n; ++i) {
+      const Vec3d p = mesh.point(i);
+      bool inside = true;
+      if (r.kind == RegionDef::Kind::box) {
+        for (int k = 0; k < 3; ++k) inside &= p[k] >= r.min[k] - tol && p[k] <= r.max[k] + tol;
+      } else {
+        const double dx = p[0] - r.center[0], dy = p[1] - r.center[1], dz = p[2] - r.center[2];
+        inside = std::sqrt(dx * dx + dy * dy + dz * dz) <= r.radius + tol;
+      }
+      if (inside) out.push_back(std::int32_t(i));
+    }
+    if (out.empty())
+      throw InputError(fmt::format(
+          "body '{}': {} ({}) selects no node; the body spans [{}, {}, {}]..[{}, {}, {}]", body, what, describe(r),
+          lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]));
+  }
+  return out;
+}
+
+void check_material(const MaterialDef& m, const std::string& body) {
+  auto bad = [&](const char* field, double value, const char* rule) {
+    throw InputError(fmt::format("body '{}': material.{} must be {}, got {}", body, field, rule, value));
+  };
+  if (!(m.young > 0) || !std::isfinite(m.young)) bad("young", m.young, "a finite number > 0 (Pa)");
+  if (!(m.poisson >= 0 && m.poisson < 0.5)) bad("poisson", m.poisson, "in [0, 0.5)");
+  if (!(m.density > 0) || !std::isfinite(m.density)) bad("density", m.density, "a finite number > 0 (kg/m^3)");
+  if (!(m.damping.mass >= 0) || !std::isfinite(m.damping.mass)) bad("damping.mass", m.damping.mass, ">= 0 (1/s)");
+  if (!(m.damping.stiffness >= 0) || !std::isfinite(m.damping.stiffness))
+    bad("damping.stiffness", m.damping.stiffness, ">= 0 (s)");
+  if (m.damping.bulk_viscosity && !(*m.damping.bulk_viscosity >= 0))
+    bad("damping.bulk_viscosity", *m.damping.bulk_viscosity, ">= 0 (Pa s)");
+  if (m.damping.shear_viscosity && !(*m.damping.shear_viscosity >= 0))
+    bad("damping.shear_viscosity", *m.damping.shear_viscosity, ">= 0 (Pa s)");
+}
+
+struct Lame {
+  double lambda, mu;
+};
+Lame lame(const MaterialDef& m) {
+  return {m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson)), m.young / (2 * (1 + m.poisson))};
+}
+
+}  // namespace
+
+Vec3d MotionState::offset_at(double time) const {
+  if (host_driven) return host_offset;
+  if (keyframes.empty()) return {0, 0, 0};
+  if (time <= keyframes.front().time) return keyframes.front().offset;
+  if (time >= keyframes.back().time) return keyframes.back().offset;
+  auto it = std::upper_bound(keyframes.begin(), keyframes.end(), time,
+                             [](double t, const KeyframeDef& k) { return t < k.time; });
+  const KeyframeDef& b = *it;
+  const KeyframeDef& a = *(it - 1);
+  const double s = b.time > a.time ? (time - a.time) / (b.time - a.time) : 1.0;
+  return {a.offset[0] + s * (b.offset[0] - a.offset[0]), a.offset[1] + s * (b.offset[1] - a.offset[1]),
+          a.offset[2] + s * (b.offset[2] - a.offset[2])};
+}
+
+double courant_time_step(double h_min, const MaterialDef& m, ForceModel model, double courant) {
+  const Lame l = lame(m);
+  const double modulus = l.lambda + 2 * l.mu;  // P-wave modulus (Pa)
+  const double cp = std::sqrt(modulus / m.density);  // m/s
+  const double dt0 = h_min / cp;                      // s, undamped critical step of the stiffest element
+  const double omega_max = 2.0 / dt0;                 // rad/s
+  // Damping ratio of the highest mode: viscous stress acts like a Rayleigh stiffness factor
+  // beta = (phi + 2 psi) / (lambda + 2 mu); mass damping contributes alpha / (2 omega).
+  double phi = m.damping.stiffness * l.lambda, psi = m.damping.stiffness * l.mu;
+  if (m.damping.bulk_viscosity) phi = *m.damping.bulk_viscosity;
+  if (m.damping.shear_viscosity) psi = *m.damping.shear_viscosity;
+  double beta = (phi + 2 * psi) / modulus;
+  if (model == ForceModel::springs) beta = m.damping.stiffness;
+  const double zeta = 0.5 * beta * omega_max + m.damping.mass / (2 * omega_max);
+  // Critical step of a damped oscillator under central differences: (2/omega)(sqrt(1+z^2) - z).
+  return courant * dt0 * (std::sqrt(1 + zeta * zeta) - zeta);
+}
+
+template <class T>
+Level<T> build_level(const TetMesh& mesh, const BodyDef& def, const Vec3d& gravity, double courant,
+                     std::vector<MotionState>& motions) {
+  check_material(def.material, def.name);
+  Level<T> L;
+  const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
+  L.node_count = nn;
+  L.tet_count = nt;
+  for (int k = 0; k < 3; ++k) {
+    L.X[k].resize(nn);
+    L.x[k].resize(nn);
+    L.v[k].assign(nn, T(0));
+    L.f[k].assign(nn, T(0));
+    for (std::size_t i = 0; i < nn; ++i) L.X[k][i] = L.x[k][i] = T(mesh.points[3 * i + k]);
+  }
+  for (int a = 0; a < 4; ++a) L.tet[a].resize(nt);
+  L.volume.resize(nt);
+  for (auto& g : L.grad) g.resize(nt);
+  for (auto& c : L.corner_force) c.assign(nt, T(0));
+  std::vector<double> mass(nn, 0.0);
+  double h_min = 1e300;
+  for (std::size_t t = 0; t < nt; ++t) {
+    const Tet& tt = mesh.tets[t];
+    double p[4][3];
+    for (int a = 0; a < 4; ++a) {
+      L.tet[a][t] = tt[a];
+      for (int k = 0; k < 3; ++k) p[a][k] = mesh.points[3 * tt[a] + k];
+    }
+    double volume, grad[9];
+    if (!tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, grad))
+      throw InputError(fmt::format("body '{}': tet {} is degenerate or inverted (volume {})", def.name, t, volume));
+    L.volume[t] = T(volume);
+    for (int q = 0; q < 9; ++q) L.grad[q][t] = T(grad[q]);
+    for (int a = 0; a < 4; ++a) mass[tt[a]] += def.material.density * volume / 4;
+    h_min = std::min(h_min, tet_min_altitude(p[0], p[1], p[2], p[3]));
+  }
+  if (def.model == ForceModel::corotational) {
+    L.rotation[0].assign(nt, T(1));
+    for (int k = 1; k < 4; ++k) L.rotation[k].assign(nt, T(0));
+  }
+
+  // Incidence: count, prefix sum, fill in tet order (so each node's list is sorted).
+  L.incidence_offsets.assign(nn + 1, 0);
+  for (std::size_t t = 0; t < nt; ++t)
+    for (int a = 0; a < 4; ++a) ++L.incidence_offsets[mesh.tets[t][a] + 1];
+  for (std::size_t i = 0; i < nn; ++i) L.incidence_offsets[i + 1] += L.incidence_offsets[i];
+  L.incidence.resize(4 * nt);
+  {
+    std::vector<std::int32_t> cursor(L.incidence_offsets.begin(), L.incidence_offsets.end() - 1);
+    for (std::size_t t = 0; t < nt; ++t)
+      for (int a = 0; a < 4; ++a) L.incidence[cursor[mesh.tets[t][a]]++] = std::int32_t(4 * t + a);
+  }
+  L.boundary = boundary_triangles(mesh.tets);
+
+  // Node states: fixed regions, then prescribed motions (also fixed: the motion drives them).
+  L.state.assign(nn, kNodeFree);
+  for (std::size_t i = 0; i < def.fixed.size(); ++i)
+    for (auto n : select_nodes(mesh, def.fixed[i], fmt::format("fixed[{}]", i), def.name)) L.state[n] = kNodeFixed;
+  motions.clear();
+  for (std::size_t i = 0; i < def.prescribed.size(); ++i) {
+    MotionState m;
+    m.nodes = select_nodes(mesh, def.prescribed[i].region, fmt::format("prescribed[{}]", i), def.name);
+    m.keyframes = def.prescribed[i].keyframes;
+    for (std::size_t k = 1; k < m.keyframes.size(); ++k)
+      if (m.keyframes[k].time < m.keyframes[k - 1].time)
+        throw InputError(fmt::format("body '{}': prescribed[{}].keyframes must be sorted by time", def.name, i));
+    for (auto n : m.nodes) L.state[n] = kNodeFixed;
+    const Vec3d o = m.offset_at(0.0);
+    for (auto n : m.nodes)
+      for (int k = 0; k < 3; ++k) L.x[k][n] = L.X[k][n] + T(o[k]);
+    motions.push_back(std::move(m));
+  }
+  if (!def.loads.empty()) {
+    for (auto& e : L.external) e.assign(nn, T(0));
+    for (std::size_t i = 0; i < def.loads.size(); ++i) {
+      const auto nodes = select_nodes(mesh, def.loads[i].region, fmt::format("loads[{}]", i), def.name);
+      for (auto n : nodes)
+        for (int k = 0; k < 3; ++k) L.external[k][n] += T(def.loads[i].total_force[k] / double(nodes.size()));
+    }
+  }
+  L.mass.resize(nn);
+  L.inv_mass.resize(nn);
+  for (std::size_t i = 0; i < nn; ++i) {
+    L.mass[i] = T(mass[i]);
+    L.inv_mass[i] = L.state[i] == kNodeFree ? T(1.0 / mass[i]) : T(0);
+  }
+
+  const Lame l = lame(def.material);
+  L.model = def.model;
+  L.lambda = T(l.lambda);
+  L.mu = T(l.mu);
+  const auto& d = def.material.damping;
+  L.bulk_viscosity = T(d.bulk_viscosity ? *d.bulk_viscosity : d.stiffness * l.lambda);
+  L.shear_viscosity = T(d.shear_viscosity ? *d.shear_viscosity : d.stiffness * l.mu);
+  L.mass_damping = T(d.mass);
+  L.young = T(def.material.young);
+  L.stiffness_damping = T(d.stiffness);
+  L.min_altitude = h_min;
+  L.stable_dt = courant_time_step(h_min, def.material, def.model, courant);
+  (void)gravity;
+  return L;
+}
+
+template Level<float> build_level<float>(const TetMesh&, const BodyDef&, const Vec3d&, double, std::vector<MotionState>&);
+template Level<double> build_level<double>(const TetMesh&, const BodyDef&, const Vec3d&, double,
+                                           std::vector<MotionState>&);
+
+}  // namespace pliant::detail

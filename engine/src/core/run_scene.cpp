@@ -1,0 +1,196 @@
+// The scene runner: builds the world, steps it for the scene's duration, records probes and
+// VTU frames at their own rates, prints a progress line, writes summary.json.
+#include "pliant/run.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fmt/format.h>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "pliant/vtu_writer.hpp"
+
+namespace pliant {
+namespace fs = std::filesystem;
+
+std::string hash_hex(std::uint64_t h) { return fmt::format("{:016x}", h); }
+
+World make_world(const SceneDef& scene, const RunOptions& options) {
+  WorldDef wd = scene.world;
+  if (options.threads) wd.threads = *options.threads;
+  if (options.precision) wd.precision = *options.precision;
+  World world(wd);
+  for (const BodyDef& b : scene.bodies) world.add_body(b);
+  for (const ProbeDef& p : scene.probes) world.add_probe(p);
+  return world;
+}
+
+namespace {
+
+class ProbeWriter {
+ public:
+  ProbeWriter(const fs::path& path, bool enabled) {
+    if (!enabled) return;
+    file_ = std::fopen(path.string().c_str(), "w");
+    if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
+    std::fputs("time,probe,x,y,z\n", file_);
+  }
+  ~ProbeWriter() {
+    if (file_) std::fclose(file_);
+  }
+  void write(const World& w) {
+    if (!file_) return;
+    for (std::size_t p = 0; p < w.probe_count(); ++p) {
+      const Vec3d x = w.probe_position(int(p));
+      fmt::print(file_, "{:.9g},{},{:.12g},{:.12g},{:.12g}\n", w.time(), w.probe_name(int(p)), x[0], x[1], x[2]);
+    }
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+};
+
+class VtuSeries {
+ public:
+  VtuSeries(const fs::path& dir, bool enabled) : dir_(dir), pvd_(dir / "series.pvd"), enabled_(enabled) {
+    if (enabled_) fs::create_directories(dir_ / "vtu");
+  }
+  void write(const World& w, std::vector<std::string>& files) {
+    if (!enabled_) return;
+    for (std::size_t b = 0; b < w.body_count(); ++b) {
+      const World::Snapshot s = w.snapshot(BodyId(b));
+      const std::string name = fmt::format("vtu/{}_{:05d}.vtu", w.body_def(BodyId(b)).name, frame_);
+      std::vector<VtuField> fields;
+      fields.push_back({"displacement", 3, false, s.displacement});
+      fields.push_back({"von_mises", 1, true, s.von_mises});
+      fields.push_back({"stress", 9, true, s.stress});
+      write_vtu(dir_ / name, s.points, s.tets, fields, VtuEncoding::base64_zlib);
+      pvd_.add(w.time(), name, int(b));
+      files.push_back(name);
+    }
+    pvd_.write();
+    ++frame_;
+  }
+  bool enabled() const { return enabled_; }
+
+ private:
+  fs::path dir_;
+  PvdSeries pvd_;
+  bool enabled_;
+  int frame_ = 0;
+};
+
+void write_summary(const fs::path& path, const RunSummary& s) {
+  nlohmann::ordered_json j;
+  j["status"] = s.status;
+  if (!s.message.empty()) j["message"] = s.message;
+  j["steps"] = s.steps;
+  j["substeps"] = s.substeps;
+  j["simulated_time"] = s.simulated_time;
+  j["wall_time_s"] = s.wall_time_s;
+  j["steps_per_second"] = s.steps_per_second;
+  j["nodes"] = s.nodes;
+  j["tets"] = s.tets;
+  j["model"] = s.model;
+  j["precision"] = s.precision;
+  j["threads"] = s.threads;
+  j["dt"] = s.dt;
+  j["stable_dt"] = s.stable_dt;
+  j["max_displacement"] = s.max_displacement;
+  j["kinetic_energy"] = s.kinetic_energy;
+  j["elastic_energy"] = s.elastic_energy;
+  j["potential_energy"] = s.potential_energy;
+  j["state_hash"] = s.state_hash;
+  j["files"] = s.files;
+  std::ofstream out(path);
+  if (!out) throw InputError(fmt::format("{}: cannot write", path.string()));
+  out << j.dump(2) << "\n";
+}
+
+}  // namespace
+
+RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
+  using Clock = std::chrono::steady_clock;
+  const double duration = options.duration.value_or(scene.duration);
+  if (!(duration > 0 && std::isfinite(duration)))
+    throw InputError(fmt::format("duration must be a finite number > 0 (s), got {}", duration));
+  if (options.write_files) fs::create_directories(options.out_dir);
+
+  World world = make_world(scene, options);
+  RunSummary s;
+  s.precision = to_string(world.precision());
+  s.threads = world.threads();
+  s.dt = world.dt();
+  s.stable_dt = world.stable_dt();
+  s.substeps = world.substeps();
+  for (std::size_t b = 0; b < world.body_count(); ++b) {
+    s.nodes += world.node_count(BodyId(b));
+    s.tets += world.tet_count(BodyId(b));
+    const std::string m = to_string(world.body_def(BodyId(b)).model);
+    if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
+  }
+  const std::int64_t total_steps = std::int64_t(std::ceil(duration / world.dt() - 1e-9));
+
+  ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
+  if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
+  VtuSeries vtu(options.out_dir, options.write_files && scene.output.vtu_every > 0);
+  probes.write(world);
+  vtu.write(world, s.files);
+  double next_probe = scene.output.probe_every, next_vtu = scene.output.vtu_every;
+  const double eps = 1e-9 * world.dt();
+
+  const auto start = Clock::now();
+  auto last_print = start;
+  try {
+    for (std::int64_t i = 0; i < total_steps; ++i) {
+      world.step();
+      if (world.time() + eps >= next_probe) {
+        probes.write(world);
+        next_probe += scene.output.probe_every;
+        if (scene.output.probe_every > 0)
+          while (next_probe <= world.time() + eps) next_probe += scene.output.probe_every;
+      }
+      if (vtu.enabled() && world.time() + eps >= next_vtu) {
+        vtu.write(world, s.files);
+        while (next_vtu <= world.time() + eps) next_vtu += scene.output.vtu_every;
+      }
+      if (options.progress && (i & 63) == 0) {
+        const auto now = Clock::now();
+        if (now - last_print > std::chrono::milliseconds(200)) {
+          last_print = now;
+          const double wall = std::chrono::duration<double>(now - start).count();
+          const double rate = double(i + 1) / wall;
+          std::fprintf(stderr, "\r  %5.1f%%  t = %.4g / %.4g s  step %lld / %lld  %.0f steps/s  ETA %.0f s   ",
+                       100.0 * double(i + 1) / double(total_steps), world.time(), duration, (long long)(i + 1),
+                       (long long)total_steps, rate, double(total_steps - i - 1) / rate);
+          std::fflush(stderr);
+        }
+      }
+    }
+  } catch (const DivergenceError& e) {
+    s.status = "diverged";
+    s.message = e.what();
+  }
+  if (options.progress) std::fprintf(stderr, "\r%100s\r", "");
+  s.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
+  s.steps = world.steps();
+  s.simulated_time = world.time();
+  s.steps_per_second = s.wall_time_s > 0 ? double(s.steps) / s.wall_time_s : 0;
+  s.state_hash = hash_hex(world.state_hash());
+  if (s.status == "ok") {
+    const Energies e = world.energies();
+    s.kinetic_energy = e.kinetic;
+    s.elastic_energy = e.elastic;
+    s.potential_energy = e.potential;
+    s.max_displacement = world.max_displacement();
+  }
+  if (options.write_files) {
+    s.files.push_back("summary.json");
+    write_summary(options.out_dir / "summary.json", s);
+  }
+  if (s.status != "ok") throw DivergenceError(s.message);
+  return s;
+}
+
+}  // namespace pliant

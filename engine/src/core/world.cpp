@@ -1,0 +1,375 @@
+// World: the public facade over Simulation<float|double>. Chooses the step (auto = the stable
+// bound; an explicit dt above it is refused or sub-stepped), reports divergence at once, and
+// offers the zero-copy and measuring accessors hosts and the runner use.
+#include "pliant/world.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fmt/format.h>
+#include <variant>
+
+#include "pliant/mesh_io.hpp"
+#include "pliant/meshing.hpp"
+#include "simulation.hpp"
+
+namespace pliant {
+
+namespace detail {
+template <class T>
+void cauchy_stress(Executor& exec, const Level<T>& L, std::vector<double>& sigma9);
+}
+
+struct World::Impl {
+  WorldDef def;
+  Executor exec;
+  std::variant<detail::Simulation<float>, detail::Simulation<double>> sim;
+  double time = 0;
+  std::int64_t steps = 0;
+  double dt = 0, stable_dt = 0;
+  int substeps = 1;
+
+  explicit Impl(const WorldDef& d) : def(d), exec(d.threads) {
+    if (d.precision == Precision::float32)
+      sim.emplace<detail::Simulation<float>>();
+    else
+      sim.emplace<detail::Simulation<double>>();
+    std::visit([&](auto& s) {
+      for (int k = 0; k < 3; ++k) s.gravity[k] = static_cast<std::remove_reference_t<decltype(s.gravity[0])>>(d.gravity[k]);
+    }, sim);
+  }
+
+  template <class F>
+  decltype(auto) visit(F&& f) { return std::visit(std::forward<F>(f), sim); }
+  template <class F>
+  decltype(auto) visit(F&& f) const { return std::visit(std::forward<F>(f), sim); }
+
+  // Recomputes the step from every level's bound and the world's time-step settings.
+  void choose_step() {
+    stable_dt = visit([](auto& s) {
+      double m = 1e300;
+      for (auto& b : s.bodies)
+        for (auto& L : b.levels) m = std::min(m, L.stable_dt);
+      return m;
+    });
+    const TimeStepDef& ts = def.time_step;
+    if (!ts.dt) {
+      dt = stable_dt;
+      substeps = 1;
+      return;
+    }
+    if (*ts.dt <= stable_dt) {
+      dt = *ts.dt;
+      substeps = 1;
+      return;
+    }
+    if (!ts.substep)
+      throw InputError(fmt::format(
+          "time_step.dt = {:.6g} s is above the stable bound {:.6g} s (Courant number {}); use \"auto\", a dt at or "
+          "below the bound, or \"substep\": true to split each step into stable sub-steps",
+          *ts.dt, stable_dt, ts.courant));
+    substeps = int(std::ceil(*ts.dt / stable_dt));
+    dt = *ts.dt;
+  }
+
+  template <class S>
+  auto& body(S& s, BodyId id) const {
+    if (id < 0 || std::size_t(id) >= s.bodies.size()) throw InputError(fmt::format("no body with id {}", id));
+    return s.bodies[std::size_t(id)];
+  }
+  template <class S>
+  auto& level(S& s, BodyId id, int l) const {
+    auto& b = body(s, id);
+    if (l < 0 || std::size_t(l) >= b.levels.size())
+      throw InputError(fmt::format("body '{}' has no level {} (it has {})", b.def.name, l, b.levels.size()));
+    return b.levels[std::size_t(l)];
+  }
+};
+
+World::World(const WorldDef& def) {
+  if (!(def.time_step.courant > 0 && def.time_step.courant <= 1))
+    throw InputError(fmt::format("time_step.courant must be in (0, 1], got {}", def.time_step.courant));
+  if (def.time_step.dt && !(*def.time_step.dt > 0 && std::isfinite(*def.time_step.dt)))
+    throw InputError(fmt::format("time_step.dt must be \"auto\" or a finite number > 0, got {}", *def.time_step.dt));
+  for (int k = 0; k < 3; ++k)
+    if (!std::isfinite(def.gravity[k])) throw InputError("gravity must be 3 finite numbers");
+  if (def.threads < 0) throw InputError(fmt::format("threads must be >= 0 (0 = all cores), got {}", def.threads));
+  impl_ = std::make_unique<Impl>(def);
+}
+World::~World() = default;
+World::World(World&&) noexcept = default;
+World& World::operator=(World&&) noexcept = default;
+
+TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) {
+  MeshLoadReport local;
+  MeshLoadReport& rep = report ? *report : local;
+  TetMesh mesh;
+  switch (src.kind) {
+    case MeshSourceDef::Kind::box: mesh = make_box_mesh(src.min, src.max, src.cells, src.tets_per_cell); break;
+    case MeshSourceDef::Kind::file: mesh = read_tet_mesh(src.path, &rep); break;
+    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size); break;
+    case MeshSourceDef::Kind::implicit: mesh = mesh_implicit_shape(src.shape, src.cell_size); break;
+  }
+  if (!(src.scale > 0 && std::isfinite(src.scale)))
+    throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
+  if (src.scale != 1.0 || src.translate != Vec3d{0, 0, 0}) transform_mesh(mesh, src.scale, src.translate);
+  return mesh;
+}
+
+BodyId World::add_body(const BodyDef& def) { return add_body(def, build_mesh(def.mesh)); }
+
+BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
+  if (find_body(def.name) >= 0) throw InputError(fmt::format("a body named '{}' exists already", def.name));
+  MeshLoadReport report;
+  finalize_tet_mesh(mesh, fmt::format("body '{}'", def.name), report);
+  if (mesh.tet_count() == 0) throw InputError(fmt::format("body '{}': the mesh has no tetrahedra", def.name));
+  const BodyId id = impl_->visit([&](auto& s) {
+    using T = std::remove_reference_t<decltype(s.gravity[0])>;
+    detail::SimBody<T> b;
+    b.def = def;
+    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.gravity, impl_->def.time_step.courant, b.motions));
+    s.bodies.push_back(std::move(b));
+    return BodyId(s.bodies.size() - 1);
+  });
+  try {
+    impl_->choose_step();
+  } catch (...) {
+    impl_->visit([](auto& s) { s.bodies.pop_back(); });
+    throw;
+  }
+  return id;
+}
+
+int World::add_probe(const ProbeDef& def) {
+  const BodyId b = find_body(def.body);
+  if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
+  return impl_->visit([&](auto& s) {
+    const auto& L = s.bodies[std::size_t(b)].levels.back();  // the finest level
+    // The tet whose smallest barycentric weight is largest contains the point (or is nearest).
+    double best = -1e300;
+    detail::ProbeState p;
+    p.name = def.name;
+    p.body = b;
+    p.level = int(s.bodies[std::size_t(b)].levels.size()) - 1;
+    for (std::size_t t = 0; t < L.tet_count; ++t) {
+      double c[4][3];
+      for (int a = 0; a < 4; ++a)
+        for (int k = 0; k < 3; ++k) c[a][k] = double(L.X[k][L.tet[a][t]]);
+      const double d[3] = {def.point[0] - c[0][0], def.point[1] - c[0][1], def.point[2] - c[0][2]};
+      double w[4];
+      w[0] = 1;
+      for (int a = 0; a < 3; ++a) {
+        const double g0 = double(L.grad[3 * a][t]), g1 = double(L.grad[3 * a + 1][t]), g2 = double(L.grad[3 * a + 2][t]);
+        w[a + 1] = g0 * d[0] + g1 * d[1] + g2 * d[2];
+        w[0] -= w[a + 1];
+      }
+      const double m = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
+      if (m > best) {
+        best = m;
+        p.tet = std::int32_t(t);
+        for (int a = 0; a < 4; ++a) p.weights[a] = w[a];
+      }
+    }
+    if (best < -1e-6)
+      throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
+                                   def.point[1], def.point[2], def.body));
+    s.probes.push_back(p);
+    return int(s.probes.size()) - 1;
+  });
+}
+
+void World::step() {
+  Impl& w = *impl_;
+  const int n = w.substeps;
+  const double h = w.dt / n;
+  for (int i = 0; i < n; ++i) {
+    std::string where;
+    const double t = w.time + h * i;
+    const bool ok = w.visit([&](auto& s) { return s.step(w.exec, t, h, where, w.steps); });
+    if (!ok) throw DivergenceError("diverged: " + where);
+  }
+  ++w.steps;
+  w.time = w.time + w.dt;
+}
+
+double World::time() const { return impl_->time; }
+std::int64_t World::steps() const { return impl_->steps; }
+double World::dt() const { return impl_->dt; }
+double World::stable_dt() const { return impl_->stable_dt; }
+int World::substeps() const { return impl_->substeps; }
+Precision World::precision() const { return impl_->def.precision; }
+int World::threads() const { return impl_->exec.threads(); }
+
+std::size_t World::body_count() const {
+  return impl_->visit([](auto& s) { return s.bodies.size(); });
+}
+BodyId World::find_body(std::string_view name) const {
+  return impl_->visit([&](auto& s) {
+    for (std::size_t i = 0; i < s.bodies.size(); ++i)
+      if (s.bodies[i].def.name == name) return BodyId(i);
+    return BodyId(-1);
+  });
+}
+const BodyDef& World::body_def(BodyId b) const {
+  return impl_->visit([&](auto& s) -> const BodyDef& { return impl_->body(s, b).def; });
+}
+int World::level_count(BodyId b) const {
+  return impl_->visit([&](auto& s) { return int(impl_->body(s, b).levels.size()); });
+}
+std::size_t World::node_count(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) { return impl_->level(s, b, l).node_count; });
+}
+std::size_t World::tet_count(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) { return impl_->level(s, b, l).tet_count; });
+}
+
+template <class T>
+Level<T>& World::level(BodyId b, int l) {
+  auto* s = std::get_if<detail::Simulation<T>>(&impl_->sim);
+  if (!s)
+    throw InputError(fmt::format("level<{}>() on a world of precision {}", sizeof(T) == 4 ? "float" : "double",
+                                 to_string(impl_->def.precision)));
+  return impl_->level(*s, b, l);
+}
+template <class T>
+const Level<T>& World::level(BodyId b, int l) const {
+  return const_cast<World*>(this)->level<T>(b, l);
+}
+template Level<float>& World::level<float>(BodyId, int);
+template Level<double>& World::level<double>(BodyId, int);
+template const Level<float>& World::level<float>(BodyId, int) const;
+template const Level<double>& World::level<double>(BodyId, int) const;
+
+Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
+    return Vec3d{double(L.x[0][n]), double(L.x[1][n]), double(L.x[2][n])};
+  });
+}
+Vec3d World::node_rest_position(BodyId b, std::size_t n, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
+    return Vec3d{double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
+  });
+}
+
+void World::set_motion_offset(BodyId b, int motion, const Vec3d& offset) {
+  impl_->visit([&](auto& s) {
+    auto& body = impl_->body(s, b);
+    if (motion < 0 || std::size_t(motion) >= body.motions.size())
+      throw InputError(fmt::format("body '{}' has no prescribed motion {} (it has {})", body.def.name, motion,
+                                   body.motions.size()));
+    for (int k = 0; k < 3; ++k)
+      if (!std::isfinite(offset[k])) throw InputError("set_motion_offset: offset must be finite");
+    auto& m = body.motions[std::size_t(motion)];
+    // Keep the velocity consistent: the current offset becomes the start of the next step.
+    if (!m.host_driven) m.host_from = m.offset_at(impl_->time);
+    m.host_driven = true;
+    m.host_offset = offset;
+  });
+}
+
+std::size_t World::probe_count() const {
+  return impl_->visit([](auto& s) { return s.probes.size(); });
+}
+const std::string& World::probe_name(int p) const {
+  return impl_->visit([&](auto& s) -> const std::string& { return s.probes.at(std::size_t(p)).name; });
+}
+Vec3d World::probe_position(int p) const {
+  return impl_->visit([&](auto& s) {
+    const auto& pr = s.probes.at(std::size_t(p));
+    const auto& L = s.bodies[std::size_t(pr.body)].levels[std::size_t(pr.level)];
+    Vec3d out{0, 0, 0};
+    for (int a = 0; a < 4; ++a) {
+      const auto n = L.tet[a][std::size_t(pr.tet)];
+      for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * double(L.x[k][n]);
+    }
+    return out;
+  });
+}
+
+Energies World::energies() const {
+  Energies e;
+  impl_->visit([&](auto& s) {
+    s.elastic_energies(impl_->exec, e.elastic);
+    for (const auto& b : s.bodies)
+      for (const auto& L : b.levels)
+        for (std::size_t n = 0; n < L.node_count; ++n) {
+          const double m = double(L.mass[n]);
+          double v2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double v = double(L.v[k][n]), u = double(L.x[k][n]) - double(L.X[k][n]);
+            v2 += v * v;
+            e.potential -= m * double(s.gravity[k]) * u;
+            if (!L.external[k].empty()) e.potential -= double(L.external[k][n]) * u;
+          }
+          e.kinetic += 0.5 * m * v2;
+        }
+  });
+  return e;
+}
+
+double World::max_displacement() const {
+  return impl_->visit([](auto& s) {
+    double m = 0;
+    for (const auto& b : s.bodies)
+      for (const auto& L : b.levels)
+        for (std::size_t n = 0; n < L.node_count; ++n) {
+          double u2 = 0;
+          for (int k = 0; k < 3; ++k) {
+            const double u = double(L.x[k][n]) - double(L.X[k][n]);
+            u2 += u * u;
+          }
+          m = std::max(m, std::sqrt(u2));
+        }
+    return m;
+  });
+}
+
+std::uint64_t World::state_hash() const {
+  std::uint64_t h = 1469598103934665603ull;  // FNV-1a offset basis
+  auto mix = [&](const void* data, std::size_t bytes) {
+    const auto* p = static_cast<const unsigned char*>(data);
+    for (std::size_t i = 0; i < bytes; ++i) {
+      h ^= p[i];
+      h *= 1099511628211ull;
+    }
+  };
+  impl_->visit([&](auto& s) {
+    for (const auto& b : s.bodies)
+      for (const auto& L : b.levels)
+        for (int k = 0; k < 3; ++k) {
+          mix(L.x[k].data(), L.x[k].size() * sizeof(L.x[k][0]));
+          mix(L.v[k].data(), L.v[k].size() * sizeof(L.v[k][0]));
+        }
+  });
+  return h;
+}
+
+World::Snapshot World::snapshot(BodyId b, int l) const {
+  Snapshot out;
+  impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    out.points.resize(3 * L.node_count);
+    out.displacement.resize(3 * L.node_count);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int k = 0; k < 3; ++k) {
+        out.points[3 * n + k] = double(L.x[k][n]);
+        out.displacement[3 * n + k] = double(L.x[k][n]) - double(L.X[k][n]);
+      }
+    out.tets.resize(L.tet_count);
+    for (std::size_t t = 0; t < L.tet_count; ++t)
+      out.tets[t] = {L.tet[0][t], L.tet[1][t], L.tet[2][t], L.tet[3][t]};
+    detail::cauchy_stress(impl_->exec, L, out.stress);
+    out.von_mises.resize(L.tet_count);
+    for (std::size_t t = 0; t < L.tet_count; ++t) {
+      const double* q = &out.stress[9 * t];
+      const double a = q[0] - q[4], bb = q[4] - q[8], c = q[8] - q[0];
+      out.von_mises[t] = std::sqrt(0.5 * (a * a + bb * bb + c * c) + 3 * (q[1] * q[1] + q[5] * q[5] + q[2] * q[2]));
+    }
+  });
+  return out;
+}
+
+}  // namespace pliant

@@ -1,0 +1,122 @@
+// Validation and normalisation of tetrahedral meshes, shared by every mesh source (files,
+// generators, meshers): a TetMesh that leaves finalize_tet_mesh has finite coordinates,
+// in-range indices, positively oriented non-degenerate tets and no unused vertex, so that
+// the rest of the engine never has to check again. Lengths in m, volumes in m^3.
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include <fmt/format.h>
+
+#include "mesh_reader_util.hpp"
+#include "pliant/error.hpp"
+#include "pliant/tet_mesh.hpp"
+
+namespace pliant {
+
+double signed_tet_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d) {
+  const double ux = b[0] - a[0], uy = b[1] - a[1], uz = b[2] - a[2];
+  const double vx = c[0] - a[0], vy = c[1] - a[1], vz = c[2] - a[2];
+  const double wx = d[0] - a[0], wy = d[1] - a[1], wz = d[2] - a[2];
+  const double det = ux * (vy * wz - vz * wy) - uy * (vx * wz - vz * wx) + uz * (vx * wy - vy * wx);
+  return det / 6.0;
+}
+
+namespace meshio {
+
+void finalize_tet_mesh_named(TetMesh& mesh, const std::string& source, MeshLoadReport& report,
+                             const std::function<std::string(std::size_t)>& where) {
+  if (mesh.points.size() % 3 != 0)
+    fail(fmt::format("{}: {} coordinates is not a multiple of 3", source, mesh.points.size()));
+  const std::size_t n = mesh.node_count();
+  if (n == 0) fail(fmt::format("{}: the mesh has no nodes", source));
+  if (n > static_cast<std::size_t>(std::numeric_limits<std::int32_t>::max()))
+    fail(fmt::format("{}: too many nodes ({})", source, n));
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec3d p = mesh.point(i);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      fail(fmt::format("{}: node {} has a non-finite coordinate ({}, {}, {})", source, i, p[0],
+                       p[1], p[2]));
+  }
+  if (mesh.tets.empty())
+    fail(fmt::format("{}: the mesh has no tetrahedra ({} other cells skipped)", source,
+                     report.skipped_cells));
+
+  // Indices in range and four distinct corners; bounding box of the used nodes.
+  std::vector<char> used(n, 0);
+  Vec3d lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+           std::numeric_limits<double>::infinity()};
+  Vec3d hi{-lo[0], -lo[1], -lo[2]};
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    const Tet& tet = mesh.tets[t];
+    for (int k = 0; k < 4; ++k) {
+      if (tet[k] < 0 || static_cast<std::size_t>(tet[k]) >= n)
+        fail(fmt::format("{}{}: refers to node {}, which is not defined (the mesh has {} nodes)",
+                         source, where(t), tet[k], n));
+      for (int j = 0; j < k; ++j)
+        if (tet[j] == tet[k])
+          fail(fmt::format("{}{}: degenerate tetrahedron (node {} appears twice)", source,
+                           where(t), tet[k]));
+      used[tet[k]] = 1;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!used[i]) continue;
+    const Vec3d p = mesh.point(i);
+    for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
+  }
+  const double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  const double tolerance = 1e-12 * diag * diag * diag;  // m^3
+
+  // Degenerate tets are errors; inverted ones are turned over by swapping two corners.
+  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+    Tet& tet = mesh.tets[t];
+    const double v = signed_tet_volume(mesh.point(tet[0]), mesh.point(tet[1]),
+                                       mesh.point(tet[2]), mesh.point(tet[3]));
+    if (!(std::abs(v) > tolerance))
+      fail(fmt::format("{}{}: degenerate tetrahedron (volume {:g})", source, where(t),
+                       v == 0.0 ? 0.0 : v));
+    if (v < 0) {
+      std::swap(tet[2], tet[3]);
+      ++report.reoriented_tets;
+    }
+  }
+
+  // Drop unused vertices, keeping the order of the others.
+  const auto kept = static_cast<std::size_t>(std::count(used.begin(), used.end(), 1));
+  if (kept == n) return;
+  std::vector<std::int32_t> remap(n, -1);
+  std::vector<double> points;
+  points.reserve(3 * kept);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!used[i]) continue;
+    remap[i] = static_cast<std::int32_t>(points.size() / 3);
+    points.insert(points.end(), mesh.points.begin() + 3 * i, mesh.points.begin() + 3 * i + 3);
+  }
+  for (Tet& tet : mesh.tets)
+    for (auto& v : tet) v = remap[v];
+  mesh.points = std::move(points);
+  report.dropped_vertices += n - kept;
+}
+
+}  // namespace meshio
+
+void finalize_tet_mesh(TetMesh& mesh, const std::string& source, MeshLoadReport& report) {
+  meshio::finalize_tet_mesh_named(mesh, source, report,
+                                  [](std::size_t i) { return fmt::format(": cell {}", i); });
+}
+
+// Rejects a scale that is not finite and positive (a negative one would turn every tet inside
+// out) and a non-finite translation (m).
+void transform_mesh(TetMesh& mesh, double scale, const Vec3d& translate) {
+  if (!std::isfinite(scale) || !(scale > 0))
+    throw InputError(fmt::format("mesh scale must be finite and positive, got {}", scale));
+  for (double t : translate)
+    if (!std::isfinite(t)) throw InputError("mesh translation must be finite");
+  for (std::size_t i = 0; i < mesh.points.size(); ++i)
+    mesh.points[i] = mesh.points[i] * scale + translate[i % 3];
+}
+
+}  // namespace pliant

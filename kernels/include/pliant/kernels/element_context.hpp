@@ -1,0 +1,32 @@
+// What an element kernel reads and writes: plain pointers into a level's SoA arrays. No
+// ownership, no containers, so a kernel can be called serially in a test or by the scheduler.
+#pragma once
+#include <cstdint>
+
+namespace pliant {
+
+template <class T>
+struct ElementContext {
+  // Nodes (SoA, one array per component).
+  const T* X[3] = {};  // rest positions (m) — springs need rest lengths
+  const T* x[3] = {};  // current positions (m)
+  const T* v[3] = {};  // velocities (m/s)
+  // Tetrahedra.
+  const std::int32_t* tet[4] = {};  // corner node indices, positively oriented at rest
+  const T* volume = nullptr;        // rest volume V (m^3)
+  // Rest shape-function gradients of corners 1..3 (1/m): grad[3*(c-1) + k] is d(phi_c)/dX_k.
+  // Corner 0's gradient is minus their sum. Together they are the rows of Dm^-1.
+  const T* grad[9] = {};
+  // Corotational warm start: the element rotation as a unit quaternion (w, x, y, z), updated
+  // in place by the element pass. Null for the other models.
+  T* rotation[4] = {};
+  // Material (one per level): Lamé coefficients (Pa) and viscous coefficients (Pa*s).
+  T lambda = 0, mu = 0;
+  T bulk_viscosity = 0, shear_viscosity = 0;  // phi, psi: phi tr(eps_dot) I + 2 psi eps_dot
+  // Springs: Young's modulus (Pa) and the Rayleigh factor beta (s) for the edge dashpots.
+  T young = 0, spring_damping = 0;
+  // Output: the force on each corner, corner_force[3*c + k][tet] (N).
+  T* corner_force[12] = {};
+};
+
+}  // namespace pliant

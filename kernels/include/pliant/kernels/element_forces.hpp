@@ -1,0 +1,43 @@
+// Element passes: per tetrahedron, read its 4 nodes and write its 4 corner forces. Each model
+// has a force kernel and an energy kernel (elastic energy per tet, J). All are free functions
+// over a range of tets; instantiated for float and double.
+//
+//   linear        Cauchy strain eps = sym(F) - I, sigma = lambda tr(eps) I + 2 mu eps, P = sigma
+//   stvk          Green–Lagrange E = (F^T F - I)/2, S = lambda tr(E) I + 2 mu E, P = F S
+//   corotational  F = R S (polar), eps = S - I, P = R (lambda tr(eps) I + 2 mu eps)
+//   springs       the 6 edges of every tet as springs k = E V / L^2 (van Gelder-style), summed
+//                 over the tets sharing an edge; dashpots beta k along each edge
+// and f_c = -V P grad(phi_c). Viscous stress (thesis ch.2 §4) is added to sigma (or S) with the
+// strain rate of the same measure.
+#pragma once
+#include "pliant/kernels/element_context.hpp"
+#include "pliant/kernels/range.hpp"
+
+namespace pliant {
+
+template <class T> void element_forces_linear(const ElementContext<T>& c, Range tets);
+template <class T> void element_forces_stvk(const ElementContext<T>& c, Range tets);
+template <class T> void element_forces_corotational(const ElementContext<T>& c, Range tets);
+template <class T> void element_forces_springs(const ElementContext<T>& c, Range tets);
+
+// Elastic energy of each tet into energy[tet] (J). The corotational energy uses (and may
+// refine) the stored rotations, so it is consistent with the last force pass.
+template <class T> void element_energy_linear(const ElementContext<T>& c, Range tets, double* energy);
+template <class T> void element_energy_stvk(const ElementContext<T>& c, Range tets, double* energy);
+template <class T> void element_energy_corotational(const ElementContext<T>& c, Range tets, double* energy);
+template <class T> void element_energy_springs(const ElementContext<T>& c, Range tets, double* energy);
+
+// Cauchy (true) stress of each tet (Pa), 9 components row-major into sigma9[9 t + 3 i + j].
+// measure: 0 small strain (linear; also used to report springs), 1 Green–Lagrange
+// (sigma = F S F^T / det F), 2 corotational (sigma = R sigma_rot R^T).
+template <class T> void element_cauchy_stress(const ElementContext<T>& c, Range tets, int measure, double* sigma9);
+
+// Rest geometry of one tet from its corners (double, done once at load): volume (m^3) and the
+// gradients of phi_1..3 as rows of Dm^-1. Returns false if the tet is degenerate.
+bool tet_rest_geometry(const double a[3], const double b[3], const double c[3], const double d[3],
+                       double* volume, double grad[9]);
+
+// Smallest altitude of a tet (m): 3 V / (largest face area). The Courant length of the element.
+double tet_min_altitude(const double a[3], const double b[3], const double c[3], const double d[3]);
+
+}  // namespace pliant

@@ -1,0 +1,44 @@
+// Node passes: the deterministic gather of corner forces into node forces, and the symplectic
+// Euler integrator. Free functions over node ranges, instantiated for float and double.
+#pragma once
+#include <cstdint>
+
+#include "pliant/kernels/range.hpp"
+
+namespace pliant {
+
+// Node states (Level::state). Only free nodes are integrated.
+enum NodeStateCode : std::uint8_t { kNodeFree = 0, kNodeFixed = 1, kNodeGhost = 2, kNodeInactive = 3 };
+
+template <class T>
+struct GatherContext {
+  // Node -> (tet, corner) incidence in CSR form: entries incidence[offsets[n] .. offsets[n+1])
+  // hold 4 * tet + corner, sorted, so the sum order never depends on threads.
+  const std::int32_t* offsets = nullptr;
+  const std::int32_t* incidence = nullptr;
+  const T* corner_force[12] = {};
+  const T* external[3] = {};  // constant nodal loads (N), or null
+  T* f[3] = {};               // output: total force on each node (N)
+};
+
+template <class T>
+void gather_forces(const GatherContext<T>& c, Range nodes);
+
+template <class T>
+struct IntegrateContext {
+  T* x[3] = {};
+  T* v[3] = {};
+  const T* f[3] = {};
+  const T* inv_mass = nullptr;        // 1/kg
+  const std::uint8_t* state = nullptr;
+  T dt = 0;                           // s
+  T gravity[3] = {0, 0, 0};           // m/s^2
+  T mass_damping = 0;                 // alpha (1/s)
+};
+
+// v <- v + dt (f/m + g - alpha v); x <- x + dt v, on free nodes. Returns false if any free
+// node's new position or velocity is not finite (the caller then locates it).
+template <class T>
+bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range nodes);
+
+}  // namespace pliant

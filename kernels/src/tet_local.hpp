@@ -1,0 +1,186 @@
+// Private helpers of the element kernels: gathering one tet's corners into registers, the
+// deformation gradient, 3x3 algebra and the corotational rotation extraction.
+#pragma once
+#include <cmath>
+#include <cstddef>
+#include <limits>
+
+#include "pliant/kernels/element_context.hpp"
+
+namespace pliant::detail {
+
+template <class T>
+struct Mat3 {
+  T m[3][3];
+};
+
+// One tet's corner data, loaded from the SoA arrays.
+template <class T>
+struct TetLocal {
+  T x[4][3];  // corner positions (m)
+  T g[3][3];  // g[c-1][k] = d(phi_c)/dX_k for corners 1..3 (1/m)
+  T volume;   // m^3
+};
+
+template <class T>
+inline void load_tet(const ElementContext<T>& c, std::size_t t, TetLocal<T>& e, std::int32_t n[4]) {
+  for (int a = 0; a < 4; ++a) n[a] = c.tet[a][t];
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) e.x[a][k] = c.x[k][n[a]];
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) e.g[a][k] = c.grad[3 * a + k][t];
+  e.volume = c.volume[t];
+}
+
+// G = sum_{c=1..3} (y_c - y_0) g_c^T for corner values y (positions give F, velocities give F_dot).
+template <class T>
+inline Mat3<T> corner_gradient(const T y[4][3], const T g[3][3]) {
+  Mat3<T> G;
+  T d[3][3];
+  for (int a = 0; a < 3; ++a)
+    for (int i = 0; i < 3; ++i) d[a][i] = y[a + 1][i] - y[0][i];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) G.m[i][j] = d[0][i] * g[0][j] + d[1][i] * g[1][j] + d[2][i] * g[2][j];
+  return G;
+}
+
+template <class T>
+inline void load_velocities(const ElementContext<T>& c, const std::int32_t n[4], T v[4][3]) {
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) v[a][k] = c.v[k][n[a]];
+}
+
+// Writes f_c = -V P g_c for c = 1..3 and f_0 = -(f_1 + f_2 + f_3).
+template <class T>
+inline void store_corner_forces(const ElementContext<T>& c, std::size_t t, const Mat3<T>& P, const T g[3][3],
+                                T volume) {
+  T f0[3] = {0, 0, 0};
+  for (int a = 0; a < 3; ++a) {
+    for (int i = 0; i < 3; ++i) {
+      const T fi = -volume * (P.m[i][0] * g[a][0] + P.m[i][1] * g[a][1] + P.m[i][2] * g[a][2]);
+      c.corner_force[3 * (a + 1) + i][t] = fi;
+      f0[i] -= fi;
+    }
+  }
+  for (int i = 0; i < 3; ++i) c.corner_force[i][t] = f0[i];
+}
+
+template <class T>
+inline Mat3<T> mul(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) C.m[i][j] = A.m[i][0] * B.m[0][j] + A.m[i][1] * B.m[1][j] + A.m[i][2] * B.m[2][j];
+  return C;
+}
+
+// A^T B
+template <class T>
+inline Mat3<T> mul_tn(const Mat3<T>& A, const Mat3<T>& B) {
+  Mat3<T> C;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) C.m[i][j] = A.m[0][i] * B.m[0][j] + A.m[1][i] * B.m[1][j] + A.m[2][i] * B.m[2][j];
+  return C;
+}
+
+// sym(A) = (A + A^T) / 2
+template <class T>
+inline Mat3<T> sym(const Mat3<T>& A) {
+  Mat3<T> S;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) S.m[i][j] = T(0.5) * (A.m[i][j] + A.m[j][i]);
+  return S;
+}
+
+template <class T>
+inline T trace(const Mat3<T>& A) { return A.m[0][0] + A.m[1][1] + A.m[2][2]; }
+
+template <class T>
+inline T ddot(const Mat3<T>& A, const Mat3<T>& B) {
+  T s = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s += A.m[i][j] * B.m[i][j];
+  return s;
+}
+
+// Isotropic Hooke law on a symmetric strain: a tr(e) I + 2 b e.
+template <class T>
+inline Mat3<T> hooke(const Mat3<T>& e, T a, T b) {
+  Mat3<T> s;
+  const T tr = trace(e);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) s.m[i][j] = T(2) * b * e.m[i][j] + (i == j ? a * tr : T(0));
+  return s;
+}
+
+template <class T>
+inline void add_to(Mat3<T>& A, const Mat3<T>& B) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) A.m[i][j] += B.m[i][j];
+}
+
+template <class T>
+inline Mat3<T> quat_to_matrix(const T q[4]) {
+  const T w = q[0], x = q[1], y = q[2], z = q[3];
+  Mat3<T> R;
+  R.m[0][0] = 1 - 2 * (y * y + z * z); R.m[0][1] = 2 * (x * y - w * z);     R.m[0][2] = 2 * (x * z + w * y);
+  R.m[1][0] = 2 * (x * y + w * z);     R.m[1][1] = 1 - 2 * (x * x + z * z); R.m[1][2] = 2 * (y * z - w * x);
+  R.m[2][0] = 2 * (x * z - w * y);     R.m[2][1] = 2 * (y * z + w * x);     R.m[2][2] = 1 - 2 * (x * x + y * y);
+  return R;
+}
+
+// Rotation part of A: the unit quaternion q maximising tr(R^T A), refined in place from the
+// given start (the previous step's rotation). With M = R^T A, a body-frame rotation
+// R <- R exp([w]x) changes tr(R^T A) by g.w - w^T H w / 2 + O(|w|^3), where
+// g = (M32 - M23, M13 - M31, M21 - M12) and H = tr(M) I - sym(M); Newton's step is w = H^-1 g.
+// Near the polar rotation H is positive definite (its eigenvalues are sums of two singular
+// values) and the iteration converges quadratically: 1-2 iterations when warm-started. Where H
+// is not positive definite (inverted or flattened elements) the step falls back to the
+// gradient step w = g / |tr M| of Müller et al. 2016 ("A robust method to extract the rotational
+// part of deformations"), which always moves towards a proper rotation: inverted elements are
+// pushed back out, never reflected. The quaternion update (1, w/2) normalised needs no sin/cos;
+// its angle error only slows convergence, it does not move the fixed point.
+template <class T>
+inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
+  constexpr int kMaxIterations = 16;
+  const T tol = std::numeric_limits<T>::epsilon() < T(1e-10) ? T(1e-12) : T(4e-6);  // rad
+  Mat3<T> R = quat_to_matrix(q);
+  for (int it = 0; it < kMaxIterations; ++it) {
+    const Mat3<T> M = mul_tn(R, A);
+    const T g[3] = {M.m[2][1] - M.m[1][2], M.m[0][2] - M.m[2][0], M.m[1][0] - M.m[0][1]};
+    const T tr = trace(M);
+    // H = tr I - sym(M), symmetric.
+    const T h00 = tr - M.m[0][0], h11 = tr - M.m[1][1], h22 = tr - M.m[2][2];
+    const T h01 = T(-0.5) * (M.m[0][1] + M.m[1][0]);
+    const T h02 = T(-0.5) * (M.m[0][2] + M.m[2][0]);
+    const T h12 = T(-0.5) * (M.m[1][2] + M.m[2][1]);
+    const T c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
+    const T det = h00 * c00 + h01 * c01 + h02 * c02;
+    T w[3];
+    // Positive definite (Sylvester): h00 > 0, leading 2x2 minor > 0, det > 0 (scaled test).
+    const T scale = tr * tr * tr;
+    if (h00 > 0 && h00 * h11 - h01 * h01 > 0 && det > T(1e-6) * scale) {
+      const T c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
+      const T inv = T(1) / det;
+      w[0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv;
+      w[1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) * inv;
+      w[2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) * inv;
+    } else {
+      const T s = T(1) / (std::fabs(tr) + std::numeric_limits<T>::min() * T(1e6));
+      w[0] = g[0] * s; w[1] = g[1] * s; w[2] = g[2] * s;
+    }
+    const T angle2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    if (!(angle2 > tol * tol)) break;  // converged (also stops on NaN)
+    // q <- q * (1, w/2), normalised (body-frame increment).
+    const T d[4] = {T(1), T(0.5) * w[0], T(0.5) * w[1], T(0.5) * w[2]};
+    const T n[4] = {q[0] * d[0] - q[1] * d[1] - q[2] * d[2] - q[3] * d[3],
+                    q[0] * d[1] + q[1] * d[0] + q[2] * d[3] - q[3] * d[2],
+                    q[0] * d[2] - q[1] * d[3] + q[2] * d[0] + q[3] * d[1],
+                    q[0] * d[3] + q[1] * d[2] - q[2] * d[1] + q[3] * d[0]};
+    const T inv = T(1) / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+    for (int k = 0; k < 4; ++k) q[k] = n[k] * inv;
+    R = quat_to_matrix(q);
+  }
+  return R;
+}
+
+}  // namespace pliant::detail

@@ -1,0 +1,48 @@
+// Runs kernels over index ranges on the number of threads the host chose. The only place that
+// touches TBB. Kernels write disjoint outputs, so how TBB splits a range never changes a result.
+// No allocation and no virtual call per loop: the body is passed as a function pointer + context.
+#pragma once
+#include <cstddef>
+#include <memory>
+
+#include "pliant/kernels/range.hpp"
+
+namespace pliant {
+
+class Executor {
+ public:
+  // threads <= 0: as many as the process may use (TBB's default concurrency).
+  explicit Executor(int threads);
+  ~Executor();
+  Executor(const Executor&) = delete;
+  Executor& operator=(const Executor&) = delete;
+
+  int threads() const { return threads_; }
+
+  // Calls body(Range) over [0, n) in chunks of about `grain` items, possibly in parallel.
+  template <class Body>
+  void parallel_for(std::size_t n, std::size_t grain, const Body& body) {
+    run(n, grain, [](const void* ctx, Range r) { (*static_cast<const Body*>(ctx))(r); }, &body);
+  }
+
+  // Like parallel_for, but each chunk returns a bool; the result is the AND of all of them.
+  template <class Body>
+  bool parallel_all(std::size_t n, std::size_t grain, const Body& body) {
+    return run_all(n, grain, [](const void* ctx, Range r) { return (*static_cast<const Body*>(ctx))(r); },
+                   &body);
+  }
+
+  static int default_threads();
+
+ private:
+  using Fn = void (*)(const void*, Range);
+  using PredFn = bool (*)(const void*, Range);
+  void run(std::size_t n, std::size_t grain, Fn fn, const void* ctx);
+  bool run_all(std::size_t n, std::size_t grain, PredFn fn, const void* ctx);
+
+  struct Arena;
+  int threads_ = 1;
+  std::unique_ptr<Arena> arena_;  // null when single-threaded: loops run inline
+};
+
+}  // namespace pliant
