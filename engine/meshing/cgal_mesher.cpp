@@ -20,6 +20,7 @@
 #include <CGAL/Polygon_mesh_processing/orient_polygon_soup.h>
 #include <CGAL/Polygon_mesh_processing/polygon_soup_to_polygon_mesh.h>
 #include <CGAL/Polygon_mesh_processing/repair_polygon_soup.h>
+#include <CGAL/Polygon_mesh_processing/repair_self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/self_intersections.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_faces.h>
 #include <CGAL/Polyhedral_mesh_domain_with_features_3.h>
@@ -28,8 +29,13 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <sstream>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -110,38 +116,96 @@ TetMesh extract_tets(const C3t3& c3t3, const std::string& what) {
   return mesh;
 }
 
-// Reads a polygon surface and checks that it bounds a volume. The steps of
-// CGAL::IO::read_polygon_mesh (read soup, repair, orient, convert), done one by one so that a
-// failure can say what is wrong with the file.
+// Fallback for .obj files that CGAL's strict reader refuses because of a line it does not
+// know (the SOFA raptor_8kp.obj ends with a NUL byte): keeps "v" and "f" lines, ignores the
+// rest. Returns false if a face index is out of range or nothing was read.
+bool read_obj_leniently(const std::string& file, std::vector<Point>& points,
+                        std::vector<std::vector<std::size_t>>& faces) {
+  points.clear();
+  faces.clear();
+  std::ifstream in(file);
+  std::string line, key;
+  while (std::getline(in, line)) {
+    std::istringstream ls(line);
+    if (!(ls >> key)) continue;
+    if (key == "v") {
+      double x, y, z;
+      if (!(ls >> x >> y >> z)) return false;
+      points.emplace_back(x, y, z);
+    } else if (key == "f") {
+      std::vector<std::size_t>& f = faces.emplace_back();
+      std::string corner;
+      while (ls >> corner) {  // "i", "i/t", "i//n" or "i/t/n"; negative i counts from the end
+        const long i = std::strtol(corner.c_str(), nullptr, 10);
+        const long n = static_cast<long>(points.size());
+        const long k = i < 0 ? n + i : i - 1;
+        if (i == 0 || k < 0 || k >= n) return false;
+        f.push_back(static_cast<std::size_t>(k));
+      }
+      if (f.size() < 3) return false;
+    }
+  }
+  return !points.empty() && !faces.empty();
+}
+
+// Reads a polygon surface and checks that it bounds a volume. These are the steps of
+// CGAL::IO::read_polygon_mesh (read a soup, repair, orient, convert), done one by one so that a
+// failure can say what is wrong with the file. Local self-intersections (as in the SOFA
+// liver-smooth.obj) are repaired by CGAL's experimental remove_self_intersections.
 SurfaceMesh read_closed_surface(const std::string& file) {
+  const auto fail = [&](const std::string& what) {
+    return InputError(fmt::format("surface file '{}': {}", file, what));
+  };
+  std::error_code ec;
+  if (std::filesystem::file_size(file, ec) == 0 && !ec) throw fail("empty file");
   std::vector<Point> points;
   std::vector<std::vector<std::size_t>> faces;
-  if (!CGAL::IO::read_polygon_soup(file, points, faces))
-    throw InputError(fmt::format("surface file '{}': unreadable (not a valid .obj, .off, .stl "
-                                 "or .ply surface)", file));
-  if (faces.empty()) throw InputError(fmt::format("surface file '{}': empty (no faces)", file));
+  const std::string ext = std::filesystem::path(file).extension().string();
+  const bool is_obj = ext.size() == 4 && std::tolower(ext[1]) == 'o' && std::tolower(ext[2]) == 'b' &&
+                      std::tolower(ext[3]) == 'j';
+  if (!CGAL::IO::read_polygon_soup(file, points, faces) &&
+      !(is_obj && read_obj_leniently(file, points, faces)))
+    throw fail("unreadable (not a valid .obj, .off, .stl or .ply surface, or no faces)");
+  if (faces.empty()) throw fail("empty (no faces)");
   for (const Point& p : points)
     if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
-      throw InputError(fmt::format("surface file '{}': non-finite vertex coordinate", file));
+      throw fail("non-finite vertex coordinate");
+
   PMP::repair_polygon_soup(points, faces);  // merges duplicate points (STL), drops degenerate faces
-  if (faces.empty())
-    throw InputError(fmt::format("surface file '{}': empty (all faces degenerate)", file));
+  if (faces.empty()) throw fail("empty (all faces are degenerate)");
+  std::map<std::pair<std::size_t, std::size_t>, int> edge_faces;
+  for (const auto& f : faces)
+    for (std::size_t i = 0; i < f.size(); ++i)
+      ++edge_faces[std::minmax(f[i], f[(i + 1) % f.size()])];
+  const auto shared = std::count_if(edge_faces.begin(), edge_faces.end(),
+                                    [](const auto& e) { return e.second > 2; });
+  if (shared > 0)
+    throw fail(fmt::format("non-manifold: {} edges are shared by more than two faces", shared));
   if (!PMP::orient_polygon_soup(points, faces) || !PMP::is_polygon_soup_a_polygon_mesh(faces))
-    throw InputError(fmt::format(
-        "surface file '{}': not a manifold surface (an edge shared by more than two faces, or a "
-        "vertex where separate sheets touch)", file));
+    throw fail("non-manifold (separate sheets of the surface touch at a vertex) or not orientable");
+
   SurfaceMesh sm;
   PMP::polygon_soup_to_polygon_mesh(points, faces, sm);
   if (!CGAL::is_triangle_mesh(sm) && !PMP::triangulate_faces(sm))
-    throw InputError(fmt::format("surface file '{}': a polygon could not be triangulated", file));
+    throw fail("a polygon could not be triangulated");
   if (!CGAL::is_closed(sm)) {
     std::size_t border = 0;
     for (auto h : sm.halfedges()) border += sm.is_border(h) ? 1 : 0;
-    throw InputError(fmt::format("surface file '{}': open surface with {} border edges; a "
-                                 "closed surface is needed to bound a volume", file, border));
+    throw fail(fmt::format("open surface with {} border edges; a closed surface is needed to "
+                           "bound a volume", border));
   }
-  if (PMP::does_self_intersect(sm))
-    throw InputError(fmt::format("surface file '{}': the surface intersects itself", file));
+  if (PMP::does_self_intersect(sm)) {
+    PMP::experimental::remove_self_intersections(sm);
+    std::vector<std::pair<SurfaceMesh::Face_index, SurfaceMesh::Face_index>> pairs;
+    PMP::self_intersections(sm, std::back_inserter(pairs));
+    if (!pairs.empty() || !CGAL::is_closed(sm)) {
+      const Point& p = sm.point(sm.target(sm.halfedge(pairs.empty() ? *sm.faces().begin()
+                                                                    : pairs.front().first)));
+      throw fail(fmt::format("the surface intersects itself ({} pairs of faces, e.g. near "
+                             "({:.4g}, {:.4g}, {:.4g})) and could not be repaired",
+                             pairs.size(), p.x(), p.y(), p.z()));
+    }
+  }
   return sm;
 }
 
