@@ -2,6 +2,7 @@
 #pragma once
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -18,6 +19,10 @@ struct RunOptions {
   std::optional<double> duration;          // override the scene's (s)
   bool progress = false;                   // a progress line on stderr (rewritten in place)
   bool write_files = true;                 // false: compute only (tests, studies)
+  // Called on the initial state and then every `frame_every` simulated seconds (0: never), for
+  // pictures or custom records. It reads the world and must not change it.
+  double frame_every = 0;                  // s
+  std::function<void(const World&)> on_frame;
 };
 
 struct RunSummary {

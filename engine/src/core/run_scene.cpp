@@ -137,7 +137,9 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   VtuSeries vtu(options.out_dir, options.write_files && scene.output.vtu_every > 0);
   probes.write(world);
   vtu.write(world, s.files);
-  double next_probe = scene.output.probe_every, next_vtu = scene.output.vtu_every;
+  const bool frames = options.on_frame && options.frame_every > 0;
+  if (frames) options.on_frame(world);
+  double next_probe = scene.output.probe_every, next_vtu = scene.output.vtu_every, next_frame = options.frame_every;
   const double eps = 1e-9 * world.dt();
 
   const auto start = Clock::now();
@@ -154,6 +156,10 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
       if (vtu.enabled() && world.time() + eps >= next_vtu) {
         vtu.write(world, s.files);
         while (next_vtu <= world.time() + eps) next_vtu += scene.output.vtu_every;
+      }
+      if (frames && world.time() + eps >= next_frame) {
+        options.on_frame(world);
+        while (next_frame <= world.time() + eps) next_frame += options.frame_every;
       }
       if (options.progress && (i & 63) == 0) {
         const auto now = Clock::now();
