@@ -124,7 +124,7 @@ double courant_time_step(double h_min, const MaterialDef& m, ForceModel model, d
 }
 
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, const Vec3d& gravity, double courant,
+Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant,
                      std::vector<MotionState>& motions) {
   check_material(def.material, def.name);
   Level<T> L;
@@ -222,12 +222,10 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, const Vec3d& gravi
   L.stiffness_damping = T(d.stiffness);
   L.min_altitude = h_min;
   L.stable_dt = courant_time_step(h_min, def.material, def.model, courant);
-  (void)gravity;
   return L;
 }
 
-template Level<float> build_level<float>(const TetMesh&, const BodyDef&, const Vec3d&, double, std::vector<MotionState>&);
-template Level<double> build_level<double>(const TetMesh&, const BodyDef&, const Vec3d&, double,
-                                           std::vector<MotionState>&);
+template Level<float> build_level<float>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&);
+template Level<double> build_level<double>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&);
 
 }  // namespace pliant::detail

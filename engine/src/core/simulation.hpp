@@ -38,7 +38,7 @@ struct ProbeState {
 // Builds a level from a validated mesh: SoA arrays, rest geometry, masses, incidence, boundary,
 // node states from the body's regions, stable step. Throws InputError on bad regions or material.
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, const Vec3d& gravity, double courant,
+Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant,
                      std::vector<MotionState>& motions);
 
 // Courant bound (s) of a level of min altitude h (m) for a material, tightened by damping.

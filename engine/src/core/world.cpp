@@ -126,7 +126,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
     b.def = def;
-    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.gravity, impl_->def.time_step.courant, b.motions));
+    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions));
     s.bodies.push_back(std::move(b));
     return BodyId(s.bodies.size() - 1);
   });
