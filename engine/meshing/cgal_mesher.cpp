@@ -1,10 +1,14 @@
 // Tetrahedralisation with CGAL Mesh_3 (CGAL 5.5). This is the only pliant file that includes
-// CGAL: one CGAL translation unit takes about a minute and 4 GB to compile, so everything that
-// needs CGAL lives here, behind the plain API of pliant/meshing.hpp. Units: metres.
+// CGAL: one CGAL translation unit takes one to two minutes and 4-5 GB to compile, so everything
+// that needs CGAL lives here, behind the plain API of pliant/meshing.hpp. Lengths are in metres
+// (a surface file's coordinates are taken as metres).
 //
-// Reproducibility: make_mesh_3 runs with no_perturb() and no_exude(). CGAL 5.5 stops those two
-// optimisers on a wall-clock limit, so with them the mesh would depend on machine load. Both
-// domains seed their random generator with 0, so the same input gives the same mesh every run.
+// Reproducibility: make_mesh_3 runs with no_perturb() and exude(time_limit = 0). By default
+// CGAL 5.5 stops the perturber and the exuder on a wall-clock limit, so the mesh would depend on
+// machine load; with no_exude() it is reproducible but keeps slivers (min dihedral angles of
+// 0.4-1 deg on the organ: fatal for an explicit solver's time step). An exuder run to the end
+// is deterministic too (0.2 s at 4k tets, 0.7 s at 11k: 5-7x the refinement alone) and lifts the
+// organ's minimum dihedral angle to ~12 deg. Both domains seed their random generator with 0.
 //
 // Criteria, for cell size s: facet_angle 25 deg, facet_size s, cell_size s,
 // cell_radius_edge_ratio 3, facet_distance s/4 (implicit shapes) or s/8 (surface files, whose
@@ -58,7 +62,8 @@ using ImplicitDomain = CGAL::Labeled_mesh_domain_3<K>;
 using ImplicitTr = CGAL::Mesh_triangulation_3<ImplicitDomain>::type;
 using ImplicitC3t3 = CGAL::Mesh_complex_3_in_triangulation_3<ImplicitTr>;
 
-// Surface files: the inside of a closed triangle surface, its sharp edges (>= 60 deg) protected.
+// Surface files: the inside of a closed triangle surface, sharp edges protected if that works
+// (see mesh_surface_file).
 using SurfaceDomain = CGAL::Polyhedral_mesh_domain_with_features_3<K, SurfaceMesh>;
 using SurfaceTr = CGAL::Mesh_triangulation_3<SurfaceDomain>::type;
 using SurfaceC3t3 = CGAL::Mesh_complex_3_in_triangulation_3<SurfaceTr, SurfaceDomain::Corner_index,
@@ -85,7 +90,7 @@ void check_cell_size(double s, double volume, const std::string& what) {
 // iterating the cells (the triangulation's storage order, deterministic for a deterministic
 // run); each tet is made positively oriented.
 template <class C3t3>
-TetMesh extract_tets(const C3t3& c3t3, const std::string& what) {
+TetMesh extract_tets(const C3t3& c3t3) {
   using Vertex_handle = typename C3t3::Vertex_handle;
   struct Hash {
     std::size_t operator()(const Vertex_handle& v) const { return std::hash<const void*>()(&*v); }
@@ -108,6 +113,26 @@ TetMesh extract_tets(const C3t3& c3t3, const std::string& what) {
       std::swap(t[2], t[3]);
     mesh.tets.push_back(t);
   }
+  return mesh;
+}
+
+// Mesh_3 with the reproducible settings described at the top of the file.
+template <class C3t3, class Domain, class Criteria>
+TetMesh run_mesh_3(const Domain& domain, const Criteria& criteria) {
+  namespace P = CGAL::parameters;  // CGAL 5.5: old Boost.Parameter syntax
+  const C3t3 c3t3 =
+      CGAL::make_mesh_3<C3t3>(domain, criteria, P::no_perturb(), P::exude(P::time_limit = 0));
+  return extract_tets(c3t3);
+}
+
+double min_tet_volume(const TetMesh& m) {
+  double v = INFINITY;
+  for (const Tet& t : m.tets)
+    v = std::min(v, signed_tet_volume(m.point(t[0]), m.point(t[1]), m.point(t[2]), m.point(t[3])));
+  return v;
+}
+
+TetMesh finalized(TetMesh mesh, const std::string& what) {
   if (mesh.tets.empty())
     throw InputError(fmt::format("meshing {}: CGAL produced no tetrahedra (is cell_size larger "
                                  "than the body?)", what));
@@ -158,13 +183,14 @@ SurfaceMesh read_closed_surface(const std::string& file) {
   };
   std::error_code ec;
   if (std::filesystem::file_size(file, ec) == 0 && !ec) throw fail("empty file");
+  std::string ext = std::filesystem::path(file).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".obj" && ext != ".off" && ext != ".stl" && ext != ".ply")
+    throw fail("unsupported extension '" + ext + "' (surface files: .obj, .off, .stl, .ply)");
   std::vector<Point> points;
   std::vector<std::vector<std::size_t>> faces;
-  const std::string ext = std::filesystem::path(file).extension().string();
-  const bool is_obj = ext.size() == 4 && std::tolower(ext[1]) == 'o' && std::tolower(ext[2]) == 'b' &&
-                      std::tolower(ext[3]) == 'j';
   if (!CGAL::IO::read_polygon_soup(file, points, faces) &&
-      !(is_obj && read_obj_leniently(file, points, faces)))
+      !(ext == ".obj" && read_obj_leniently(file, points, faces)))
     throw fail("unreadable (not a valid .obj, .off, .stl or .ply surface, or no faces)");
   if (faces.empty()) throw fail("empty (no faces)");
   for (const Point& p : points)
@@ -222,17 +248,25 @@ TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size
   SurfaceMesh sm = read_closed_surface(file);
   check_cell_size(cell_size, std::abs(PMP::volume(sm)), "'" + file + "'");
 
-  SurfaceDomain domain(sm);
-  domain.detect_features();  // default: edges with a dihedral angle sharper than 60 deg
-
-  namespace P = CGAL::parameters;  // CGAL 5.5: old Boost.Parameter syntax
+  namespace P = CGAL::parameters;
   const double s = cell_size;
-  CGAL::Mesh_criteria_3<SurfaceTr> criteria(P::edge_size = s, P::facet_angle = 25,
-                                            P::facet_size = s, P::facet_distance = s / 8,
-                                            P::cell_radius_edge_ratio = 3, P::cell_size = s);
-  const auto c3t3 =
-      CGAL::make_mesh_3<SurfaceC3t3>(domain, criteria, P::no_perturb(), P::no_exude());
-  return extract_tets(c3t3, "'" + file + "'");
+  const CGAL::Mesh_criteria_3<SurfaceTr> criteria(
+      P::edge_size = s, P::facet_angle = 25, P::facet_size = s, P::facet_distance = s / 8,
+      P::cell_radius_edge_ratio = 3, P::cell_size = s);
+
+  // First with sharp edges (normals > 60 deg apart) protected, which keeps a CAD part's edges
+  // and corners exact. On organic surfaces (the SOFA liver, the raptor) the detected "features"
+  // are short, ragged polylines whose protecting balls leave tets of 1e-9 s^3 (fatal for an
+  // explicit solver, and rejected by finalize_tet_mesh): then mesh again without features.
+  // Good meshes have a smallest tet of 1e-3 to 5e-2 s^3.
+  SurfaceDomain with_features(sm);
+  with_features.detect_features(60);
+  TetMesh mesh = run_mesh_3<SurfaceC3t3>(with_features, criteria);
+  if (!(min_tet_volume(mesh) >= 1e-5 * s * s * s)) {
+    const SurfaceDomain smooth(sm);
+    mesh = run_mesh_3<SurfaceC3t3>(smooth, criteria);
+  }
+  return finalized(std::move(mesh), "'" + file + "'");
 }
 
 TetMesh mesh_implicit_shape(const std::string& name, double cell_size) {
@@ -256,12 +290,10 @@ TetMesh mesh_implicit_shape(const std::string& name, double cell_size) {
   const ImplicitDomain domain = ImplicitDomain::create_implicit_mesh_domain(
       f, K::Sphere_3(CGAL::ORIGIN, radius * radius), P::relative_error_bound = 1e-6);
   const double s = cell_size;
-  CGAL::Mesh_criteria_3<ImplicitTr> criteria(P::facet_angle = 25, P::facet_size = s,
-                                             P::facet_distance = s / 4,
-                                             P::cell_radius_edge_ratio = 3, P::cell_size = s);
-  const auto c3t3 =
-      CGAL::make_mesh_3<ImplicitC3t3>(domain, criteria, P::no_perturb(), P::no_exude());
-  return extract_tets(c3t3, what);
+  const CGAL::Mesh_criteria_3<ImplicitTr> criteria(
+      P::facet_angle = 25, P::facet_size = s, P::facet_distance = s / 4,
+      P::cell_radius_edge_ratio = 3, P::cell_size = s);
+  return finalized(run_mesh_3<ImplicitC3t3>(domain, criteria), what);
 }
 
 }  // namespace pliant
