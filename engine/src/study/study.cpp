@@ -1,0 +1,403 @@
+// A study: the grid of runs of one scene, errors against the reference, the Pareto front of cost
+// against error, and the CSV and markdown reports.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "pliant/error.hpp"
+#include "pliant/scene.hpp"
+#include "pliant/study.hpp"
+
+namespace pliant::study {
+namespace fs = std::filesystem;
+namespace {
+
+std::string read_text(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw InputError(fmt::format("{}: cannot open scene file", path.string()));
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+std::optional<double> as_number(const std::string& s) {
+  if (s.empty()) return std::nullopt;
+  char* end = nullptr;
+  const double v = std::strtod(s.c_str(), &end);
+  if (end != s.c_str() + s.size() || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+double relative_error(double value, double reference) {
+  if (std::isnan(value) || std::isnan(reference)) return kNaN;
+  return reference != 0 ? value / reference - 1 : value - reference;
+}
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n\r") == std::string::npos) return s;
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"') out += "\"\"";
+    else if (c == '\n' || c == '\r') out += ' ';
+    else out += c;
+  }
+  return out + "\"";
+}
+
+std::string num(double v) {
+  if (std::isnan(v)) return "nan";
+  if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+  return fmt::format("{:.9g}", v);
+}
+
+std::string unquote(const std::string& v) {
+  return v.size() >= 2 && v.front() == '"' && v.back() == '"' ? v.substr(1, v.size() - 2) : v;
+}
+
+double cost_of(const RunRecord& r, CostKind k) { return k == CostKind::wall ? r.wall_per_sim() : r.tet_steps(); }
+
+// Markdown numbers: 4 significant digits, errors in percent.
+std::string md_value(double v) { return std::isnan(v) ? "—" : fmt::format("{:.5g}", v); }
+std::string md_error(double e) {
+  if (std::isnan(e)) return "—";
+  const double p = 100 * e;
+  if (std::fabs(p) >= 10) return fmt::format("{:+.1f}%", p);
+  if (std::fabs(p) >= 0.01) return fmt::format("{:+.2f}%", p);
+  return fmt::format("{:+.1e}%", p);
+}
+std::string md_abs_error(double e) {
+  if (std::isnan(e)) return "—";
+  const double p = 100 * std::fabs(e);
+  return p >= 10 ? fmt::format("{:.1f}%", p) : p >= 0.01 ? fmt::format("{:.2f}%", p) : fmt::format("{:.1e}%", p);
+}
+std::string md_cost(double v) { return std::isnan(v) ? "—" : fmt::format("{:.3g}", v); }
+
+}  // namespace
+
+std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error, double tolerance) {
+  const std::size_t n = std::min(cost.size(), error.size());
+  std::vector<bool> front(cost.size(), false);
+  auto usable = [&](std::size_t i) { return std::isfinite(cost[i]) && std::isfinite(error[i]); };
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!usable(i)) continue;
+    bool dominated = false;
+    for (std::size_t j = 0; j < n && !dominated; ++j) {
+      if (j == i || !usable(j)) continue;
+      const bool same_error = std::fabs(error[j] - error[i]) <= tolerance * std::max(error[i], error[j]);
+      const bool better_error = error[j] < error[i] && !same_error;
+      const bool no_worse_error = error[j] <= error[i] || same_error;
+      dominated = (cost[j] <= cost[i] && better_error) || (cost[j] < cost[i] && no_worse_error);
+    }
+    front[i] = !dominated;
+  }
+  return front;
+}
+
+void finish_study(StudyResult& s) {
+  const std::size_t nq = s.quantities.size();
+  s.finest = -1;
+  if (s.reference_kind == "finest") {
+    // The run of most tet-steps among those that measured every quantity; ties: the first.
+    for (std::size_t i = 0; i < s.runs.size(); ++i) {
+      const RunRecord& r = s.runs[i];
+      const bool complete = r.status == "ok" && std::none_of(r.values.begin(), r.values.end(), [](double v) { return std::isnan(v); });
+      if (complete && (s.finest < 0 || r.tet_steps() > s.runs[std::size_t(s.finest)].tet_steps())) s.finest = int(i);
+    }
+    for (auto& r : s.runs) {
+      r.references.assign(nq, kNaN);
+      r.is_reference = false;
+      if (s.finest >= 0) r.references = s.runs[std::size_t(s.finest)].values;
+    }
+    if (s.finest >= 0) s.runs[std::size_t(s.finest)].is_reference = true;
+  }
+  std::vector<double> cost, error;
+  for (auto& r : s.runs) {
+    r.references.resize(nq, kNaN);
+    r.errors.assign(nq, kNaN);
+    r.error = nq ? 0 : kNaN;
+    for (std::size_t q = 0; q < nq; ++q) {
+      r.errors[q] = relative_error(q < r.values.size() ? r.values[q] : kNaN, r.references[q]);
+      r.error = std::isnan(r.errors[q]) || std::isnan(r.error) ? kNaN : std::max(r.error, std::fabs(r.errors[q]));
+    }
+    if (r.status != "ok") r.error = kNaN;
+    cost.push_back(cost_of(r, s.cost));
+    // The reference run is exact by construction: it is not a point of the trade.
+    error.push_back(r.is_reference ? kNaN : r.error);
+  }
+  const std::vector<bool> front = pareto_front(cost, error);
+  for (std::size_t i = 0; i < s.runs.size(); ++i) s.runs[i].pareto = front[i];
+}
+
+StudyResult run_study(const StudyOptions& o) {
+  StudyResult s;
+  s.scene = o.scene.string();
+  s.cost = o.cost;
+  const std::string source = o.scene.string();
+  const std::string text = read_text(o.scene);
+  const fs::path base_dir = o.scene.parent_path().empty() ? fs::path(".") : o.scene.parent_path();
+
+  for (const std::string& t : o.sweeps) {
+    Sweep sw = parse_sweep(t);
+    for (const Sweep& other : s.sweeps)
+      if (other.path == sw.path)
+        throw InputError(fmt::format("--sweep '{}': {} is already swept by --sweep '{}'", t, sw.path, other.text));
+    s.sweeps.push_back(std::move(sw));
+  }
+
+  // What is measured, and against what.
+  ReferenceFile ref;
+  const bool finest = o.reference == "finest";
+  const std::optional<double> value = as_number(o.reference);
+  if (!o.measure.empty()) {
+    QuantityDef q;
+    q.measure = parse_measure(o.measure, "--measure");
+    ref.quantities.push_back(q);
+    ref.source = "--measure";
+  } else if (!o.reference.empty() && !finest && !value) {
+    ref = load_reference_file(o.reference);
+  } else {
+    const fs::path side = reference_path_for(o.scene);
+    if (!fs::exists(side))
+      throw InputError(fmt::format("{}: no reference file {} beside the scene: give --measure JSON with --reference "
+                                   "VALUE|finest, or --reference FILE", source, side.string()));
+    ref = load_reference_file(side);
+  }
+  s.description = ref.description;
+  s.quantities = ref.quantities;
+  if (finest) {
+    s.reference_kind = "finest";
+  } else if (value) {
+    if (s.quantities.size() != 1)
+      throw InputError(fmt::format("--reference {}: {} defines {} quantities; a single value can only be the "
+                                   "reference of one (use --reference finest or a reference file)",
+                                   o.reference, ref.source, s.quantities.size()));
+    s.quantities[0].reference = fmt::format("{:.17g}", *value);
+    s.reference_kind = "value";
+  } else {
+    for (const QuantityDef& q : s.quantities)
+      if (q.reference.empty())
+        throw InputError(fmt::format("{}: quantity {} has no reference; give one, or --reference VALUE|finest",
+                                     ref.source, q.name));
+    s.reference_kind = "analytic";
+  }
+
+  // Every scene of the grid is edited, parsed and checked before anything runs.
+  struct Point {
+    SceneDef scene;
+    std::vector<QuantityDef> quantities;  // measures resolved with this scene's variables
+    std::vector<std::string> settings;
+    std::vector<double> references;
+  };
+  std::vector<Point> points;
+  for (const auto& overrides : expand_grid(s.sweeps)) {
+    Point p;
+    std::string edited;
+    for (std::size_t k = 0; k < overrides.size(); ++k) p.settings.push_back(overrides[k].substr(s.sweeps[k].path.size() + 1));
+    const std::string label = settings_label(s.sweeps, p.settings);
+    try {
+      edited = apply_scene_overrides(text, overrides, source);
+      p.scene = parse_scene(edited, source, base_dir);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}{}", overrides.empty() ? "" : "with " + label + ": ", e.what()));
+    }
+    p.scene.source = o.scene;
+    check_measures(s.quantities, p.scene, ref.source);
+    const auto vars = bind_variables(ref, edited);
+    for (const QuantityDef& q : s.quantities) {
+      p.quantities.push_back(q);
+      p.quantities.back().measure = resolve_measure(q.measure, vars, ref.source + ": " + q.name + ".measure");
+      p.references.push_back(s.reference_kind == "finest"
+                                 ? kNaN
+                                 : evaluate_expression(q.reference, vars, ref.source + ": " + q.name + ".reference"));
+    }
+    points.push_back(std::move(p));
+  }
+
+  const auto t0 = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    RunRecord r = run_measured(points[i].scene, points[i].quantities, o.threads);
+    double spent = r.wall_s;
+    for (int rep = 1; r.status == "ok" && rep < 5 && spent < o.min_time; ++rep) {
+      const RunRecord again = run_measured(points[i].scene, points[i].quantities, o.threads);
+      spent += again.wall_s;
+      bool same = again.status == r.status && again.values.size() == r.values.size();
+      for (std::size_t q = 0; same && q < r.values.size(); ++q)
+        same = std::memcmp(&again.values[q], &r.values[q], sizeof(double)) == 0;
+      if (!same) r.message = "a repeat of this run measured different values: not deterministic";
+      r.wall_s = std::min(r.wall_s, again.wall_s);
+      r.repeats = rep + 1;
+    }
+    r.settings = points[i].settings;
+    r.references = points[i].references;
+    if (o.progress) {
+      std::string line = fmt::format("[{}/{}] {}: ", i + 1, points.size(),
+                                     s.sweeps.empty() ? std::string("the scene") : settings_label(s.sweeps, r.settings));
+      if (r.status != "ok") {
+        line += r.status + (r.message.empty() ? "" : " (" + r.message + ")");
+      } else {
+        for (std::size_t q = 0; q < s.quantities.size(); ++q) {
+          line += fmt::format("{}{} = {:.6g}", q ? ", " : "", s.quantities[q].name, r.values[q]);
+          if (!std::isnan(r.references[q]))
+            line += fmt::format(" (ref {:.6g}, {})", r.references[q], md_error(relative_error(r.values[q], r.references[q])));
+        }
+      }
+      line += fmt::format("; {} tets, {} steps, {:.2f} s wall ({:.3g} s per simulated s)", r.tets, r.steps, r.wall_s,
+                          r.wall_per_sim());
+      o.progress(line);
+    }
+    s.runs.push_back(std::move(r));
+  }
+  s.wall_total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  finish_study(s);
+
+  if (o.write_files) {
+    fs::create_directories(o.out_dir);
+    const std::pair<const char*, std::string> files[] = {{"study.csv", study_csv(s)}, {"study.md", study_markdown(s)}};
+    for (const auto& [name, content] : files) {
+      std::ofstream out(o.out_dir / name);
+      if (!out) throw InputError(fmt::format("{}: cannot write", (o.out_dir / name).string()));
+      out << content;
+      s.files.push_back((o.out_dir / name).string());
+    }
+  }
+  return s;
+}
+
+std::string study_csv(const StudyResult& s) {
+  std::string out = "run";
+  for (const Sweep& sw : s.sweeps) out += "," + csv_field(sw.path);
+  out += ",status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps";
+  for (const QuantityDef& q : s.quantities) out += fmt::format(",{0}_value,{0}_reference,{0}_error", q.name);
+  out += ",error,pareto,reference_run,message\n";
+  for (std::size_t i = 0; i < s.runs.size(); ++i) {
+    const RunRecord& r = s.runs[i];
+    out += std::to_string(i + 1);
+    for (const std::string& v : r.settings) out += "," + csv_field(unquote(v));
+    out += fmt::format(",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", r.status, r.model, r.precision, r.threads,
+                       r.nodes, r.tets, num(r.dt), r.steps, r.substeps, num(r.simulated_time), num(r.setup_s),
+                       num(r.wall_s), r.repeats, num(r.wall_per_sim()), num(r.tet_steps()));
+    for (std::size_t q = 0; q < s.quantities.size(); ++q)
+      out += fmt::format(",{},{},{}", num(q < r.values.size() ? r.values[q] : kNaN),
+                         num(q < r.references.size() ? r.references[q] : kNaN),
+                         num(q < r.errors.size() ? r.errors[q] : kNaN));
+    out += fmt::format(",{},{},{},{}\n", num(r.error), r.pareto ? 1 : 0, r.is_reference ? 1 : 0, csv_field(r.message));
+  }
+  return out;
+}
+
+std::string study_markdown(const StudyResult& s) {
+  std::string md;
+  const char* cost_name = s.cost == CostKind::wall ? "wall s per simulated s" : "tet-steps";
+  md += fmt::format("Scene `{}`{}. {} run(s) in {:.0f} s.\n\n", s.scene,
+                    s.description.empty() ? "" : ": " + s.description, s.runs.size(), s.wall_total_s);
+  // Quantities, and their reference when it is the same in every run.
+  for (std::size_t q = 0; q < s.quantities.size(); ++q) {
+    const QuantityDef& qd = s.quantities[q];
+    std::set<double> refs;
+    for (const RunRecord& r : s.runs)
+      if (q < r.references.size() && !std::isnan(r.references[q])) refs.insert(r.references[q]);
+    std::string ref;
+    if (s.reference_kind == "finest")
+      ref = s.finest >= 0 ? fmt::format("the finest run (#{})", s.finest + 1) : "the finest run (none measured)";
+    else if (refs.size() == 1)
+      ref = fmt::format("{:.6g}{}", *refs.begin(), qd.unit.empty() ? "" : " " + qd.unit);
+    else
+      ref = "per run (below)";
+    md += fmt::format("- **{}** ({}{}): reference {}{}{}\n", qd.name, to_string(qd.measure.kind),
+                      qd.unit.empty() ? "" : ", " + qd.unit, ref, qd.formula.empty() ? "" : "; " + qd.formula,
+                      qd.notes.empty() ? "" : ". " + qd.notes);
+  }
+  md += "\n";
+
+  // One row per run; a reference column for the quantities whose reference varies.
+  auto varying = [&](std::size_t q) {
+    if (s.reference_kind == "finest") return false;
+    std::set<double> refs;
+    for (const RunRecord& r : s.runs)
+      if (q < r.references.size()) refs.insert(r.references[q]);
+    return refs.size() > 1;
+  };
+  md += "| # |";
+  for (const Sweep& sw : s.sweeps) md += fmt::format(" {} |", sw.short_name());
+  for (std::size_t q = 0; q < s.quantities.size(); ++q)
+    md += fmt::format(" {} |{} error |", s.quantities[q].name, varying(q) ? " reference |" : "");
+  md += " tets | steps | wall s / sim s | tet-steps | front |\n|---|";
+  for (std::size_t k = 0; k < s.sweeps.size(); ++k) md += "---|";
+  for (std::size_t q = 0; q < s.quantities.size(); ++q) md += varying(q) ? "---:|---:|---:|" : "---:|---:|";
+  md += "---:|---:|---:|---:|:-:|\n";
+  for (std::size_t i = 0; i < s.runs.size(); ++i) {
+    const RunRecord& r = s.runs[i];
+    md += fmt::format("| {} |", i + 1);
+    for (const std::string& v : r.settings) md += fmt::format(" {} |", unquote(v));
+    for (std::size_t q = 0; q < s.quantities.size(); ++q) {
+      md += fmt::format(" {} |", r.status == "ok" ? md_value(r.values[q]) : r.status);
+      if (varying(q)) md += fmt::format(" {} |", md_value(r.references[q]));
+      md += fmt::format(" {} |", r.is_reference ? "(reference)" : md_error(r.errors[q]));
+    }
+    md += fmt::format(" {} | {} | {} | {} | {} |\n", r.tets, r.steps, md_cost(r.wall_per_sim()), md_cost(r.tet_steps()),
+                      r.pareto ? "★" : "");
+  }
+  md += fmt::format("\n★: on the Pareto front of cost ({}) against error (the largest |error| over the quantities): "
+                    "no other run is both cheaper and more accurate (errors within 1% of each other count as equal).\n",
+                    cost_name);
+
+  // Convergence: the first sweep down, the other sweeps across, for each quantity.
+  if (s.sweeps.size() >= 2) {
+    std::vector<std::string> columns;
+    std::map<std::string, std::size_t> column_of;
+    std::vector<std::string> rows;
+    for (const RunRecord& r : s.runs) {
+      std::vector<std::string> rest(r.settings.begin() + 1, r.settings.end());
+      std::vector<Sweep> rest_sweeps(s.sweeps.begin() + 1, s.sweeps.end());
+      const std::string col = settings_label(rest_sweeps, rest);
+      if (!column_of.count(col)) column_of[col] = columns.size(), columns.push_back(col);
+      if (std::find(rows.begin(), rows.end(), r.settings[0]) == rows.end()) rows.push_back(r.settings[0]);
+    }
+    for (std::size_t q = 0; q < s.quantities.size(); ++q) {
+      md += fmt::format("\n{} against {} (value, error):\n\n| {} |", s.quantities[q].name, s.sweeps[0].short_name(),
+                        s.sweeps[0].short_name());
+      for (const auto& c : columns) md += fmt::format(" {} |", c);
+      md += "\n|---|";
+      for (std::size_t c = 0; c < columns.size(); ++c) md += "---:|";
+      md += "\n";
+      for (const std::string& row : rows) {
+        std::vector<std::string> cells(columns.size(), "");
+        for (const RunRecord& r : s.runs) {
+          if (r.settings[0] != row) continue;
+          std::vector<std::string> rest(r.settings.begin() + 1, r.settings.end());
+          std::vector<Sweep> rest_sweeps(s.sweeps.begin() + 1, s.sweeps.end());
+          const std::size_t c = column_of[settings_label(rest_sweeps, rest)];
+          cells[c] = r.status != "ok" ? r.status
+                     : r.is_reference ? md_value(r.values[q]) + " (reference)"
+                                      : md_value(r.values[q]) + " (" + md_error(r.errors[q]) + ")";
+        }
+        md += fmt::format("| {} |", unquote(row));
+        for (const auto& c : cells) md += fmt::format(" {} |", c);
+        md += "\n";
+      }
+    }
+  }
+
+  // The front, cheapest first.
+  std::vector<std::size_t> front;
+  for (std::size_t i = 0; i < s.runs.size(); ++i)
+    if (s.runs[i].pareto) front.push_back(i);
+  std::sort(front.begin(), front.end(),
+            [&](std::size_t a, std::size_t b) { return cost_of(s.runs[a], s.cost) < cost_of(s.runs[b], s.cost); });
+  md += fmt::format("\nPareto front ({} against error), cheapest first:\n\n| # | settings | cost | \\|error\\| |\n|---|---|---:|---:|\n",
+                    cost_name);
+  for (std::size_t i : front)
+    md += fmt::format("| {} | {} | {} | {} |\n", i + 1, s.sweeps.empty() ? "" : settings_label(s.sweeps, s.runs[i].settings),
+                      md_cost(cost_of(s.runs[i], s.cost)), md_abs_error(s.runs[i].error));
+  return md;
+}
+
+}  // namespace pliant::study
