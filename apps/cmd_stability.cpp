@@ -1,0 +1,66 @@
+// `pliant stability`: the stability matrix of issue 3 §3 (materials x time steps x models x
+// precisions, plus the extreme scenarios). Prints a line per cell that is not as expected (a
+// divergence at once), progress, the counts; writes the markdown table if asked. Exit 0 when every
+// cell is as expected, 3 when a cell diverged at dt <= 0.9x the bound (or any cell is unexpected).
+#include <chrono>
+#include <fmt/format.h>
+#include <fstream>
+
+#include "commands.hpp"
+#include "pliant/error.hpp"
+#include "pliant/stability.hpp"
+
+namespace pliant::cli {
+
+Command add_stability_command(CLI::App& app) {
+  struct Options {
+    bool subset = false, verbose = false;
+    int steps = 0, threads = 1;
+    std::string markdown;
+  };
+  auto o = std::make_shared<Options>();
+  auto* sub = app.add_subcommand("stability", "The stability matrix: materials x time steps x models x precisions");
+  sub->add_flag("--subset", o->subset, "Only the corners of the matrix and one material per extreme (the ctest subset)");
+  sub->add_option("--steps", o->steps, "Steps per cell (default 2000, 1000 with --subset)");
+  sub->add_option("--threads", o->threads, "Worker threads per cell")->capture_default_str();
+  sub->add_option("--markdown", o->markdown, "Write the generated table (docs/stability.md)");
+  sub->add_flag("--verbose,-v", o->verbose, "One line per cell");
+  return {sub, [o]() -> int {
+            if (o->threads < 1) throw InputError("--threads must be >= 1");
+            stability::MatrixOptions mo;
+            mo.full = !o->subset;
+            mo.steps = o->steps > 0 ? o->steps : (o->subset ? 1000 : 2000);
+            mo.threads = o->threads;
+            const auto t0 = std::chrono::steady_clock::now();
+            int unexpected = 0;
+            mo.progress = [&](const stability::CellResult& r, std::size_t i, std::size_t n) {
+              const bool ok = r.acceptable();
+              if (!ok) ++unexpected;
+              const char* known = ok ? nullptr : stability::known_issue(r.spec);
+              if (!ok || r.outcome == stability::Outcome::diverged || o->verbose)
+                fmt::print("[{}/{}] {}: {}{}{}\n", i + 1, n, r.spec.label(), stability::to_string(r.outcome),
+                           ok ? (r.outcome == stability::Outcome::diverged ? " (above 0.9x the bound: tolerated)" : "")
+                              : known ? " (UNEXPECTED, known engine issue)" : " (UNEXPECTED)",
+                           r.message.empty() ? "" : " - " + r.message);
+              else if ((i + 1) % 50 == 0 || i + 1 == n)
+                fmt::print("[{}/{}] {:.0f} s, {} unexpected so far\n", i + 1, n,
+                           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), unexpected);
+              std::fflush(stdout);
+            };
+            const auto results = stability::run_matrix(mo);
+            const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+            int counts[4] = {0, 0, 0, 0};
+            for (const auto& r : results) ++counts[int(r.outcome)];
+            fmt::print("{} cells in {:.0f} s: {} stable, {} clamped, {} refused, {} diverged; {} unexpected\n",
+                       results.size(), wall, counts[0], counts[1], counts[2], counts[3], unexpected);
+            if (!o->markdown.empty()) {
+              std::ofstream f(o->markdown);
+              if (!f) throw InputError(fmt::format("cannot write {}", o->markdown));
+              f << stability::markdown_report(results, mo, wall);
+              fmt::print("table written to {}\n", o->markdown);
+            }
+            return unexpected == 0 ? 0 : 3;
+          }};
+}
+
+}  // namespace pliant::cli

@@ -1,0 +1,176 @@
+// Stability at the extremes (issue 3 §3) and headless stress runs (§5): the code behind
+// `pliant stability` and `pliant stress`, and their ctest subsets, so that both call the same code.
+//
+// A *cell* is one small simulation built in code (no scene file): a scenario (a cantilever under
+// gravity with a random velocity kick, or one of the extreme cases), a force model, a precision,
+// a material and a time step given as a factor of the Courant bound. It ends as one of:
+//   stable   - every step finite and the energy bounded (see EnergyMonitor) at dt <= the bound;
+//   clamped  - dt above the bound with sub-stepping on: World split each step into substeps()
+//              stable sub-steps (reported), and the run was then stable;
+//   refused  - World refused the set-up (InputError) before any step, with its message;
+//   diverged - a DivergenceError (non-finite state, reported by World at the step it happened),
+//              or finite but unbounded energy, or a non-finite energy without DivergenceError.
+#pragma once
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "pliant/defs.hpp"
+#include "pliant/world.hpp"
+
+namespace pliant::stability {
+
+enum class Outcome { stable, clamped, refused, diverged };
+const char* to_string(Outcome o);
+
+// Energy boundedness, the criterion both harnesses use. Samples are taken every few steps:
+//   M(t) = K(t) + U(t)              kinetic + elastic energy (J)
+//   S(t) = K(0) + U(0) + |P(t) - P(0)| + W(t) + Eg
+// where P is the potential of gravity and constant loads (World::energies().potential), W the
+// accumulated |work| of the prescribed and fixed nodes on the body (sum over steps of
+// |f_n . dx_n| on non-free nodes, an upper bound of the energy they inject) plus the kinetic
+// energy they carry, and Eg a floor so that a body starting at rest with no load has a non-zero
+// scale: 1e-9 m g_ref D (m body mass, g_ref = 9.81 m/s^2, D bbox diagonal) plus the energy
+// 1/2 (lambda + 2 mu) e^2 V of a uniform strain e at rounding-noise level (e = 1e-4 in float,
+// 1e-7 in double; 3E instead of lambda + 2 mu for springs).
+// The run is *bounded* when, at every sample,
+//   (a) M(t) <= kBoundFactor * S(t)                 (no energy appears from nowhere), and
+//   (b) max K over the second half <= kGrowthFactor * max K over the first half + S_end
+//       (kinetic energy does not grow exponentially, even while still below (a)).
+// A symplectic Euler run at a stable step conserves a modified energy, so M stays within a few
+// per cent of K(0)+U(0)+work; an unstable step grows M by orders of magnitude within tens of steps.
+inline constexpr double kBoundFactor = 10.0;
+inline constexpr double kGrowthFactor = 100.0;
+
+class EnergyMonitor {
+ public:
+  // Records the initial state of `world` (call before the first step).
+  void start(const World& world);
+  // Call after every step: accumulates the work of the non-free nodes (cheap, O(nodes)).
+  void after_step(const World& world);
+  // Call every few steps (and at the end): samples K, U, P and checks (a). Returns false (with
+  // why()) on a non-finite or unbounded energy.
+  bool sample(const World& world);
+  // Checks (b) over all samples; call at the end.
+  bool finish();
+  const std::string& why() const { return why_; }
+  double peak_ratio() const { return peak_ratio_; }   // max M/S over the samples
+  double growth() const { return growth_; }           // (b)'s ratio, 0 if K stayed ~0
+  double initial_total() const { return m0_; }
+  double work() const { return work_; }
+
+ private:
+  std::vector<std::vector<double>> last_x_;  // per body: previous positions of non-free nodes
+  double m0_ = 0, p0_ = 0, floor_ = 0, work_ = 0, peak_ratio_ = 0, growth_ = 0, last_scale_ = 0;
+  std::vector<double> kinetic_;
+  std::string why_;
+};
+
+// ---- the matrix ---------------------------------------------------------------------------
+
+struct CellSpec {
+  std::string scenario = "cantilever";  // see scenarios()
+  ForceModel model = ForceModel::corotational;
+  Precision precision = Precision::float64;
+  double young = 1e6, poisson = 0.3;    // Pa, -
+  double dt_factor = 1.0;               // dt = factor x Courant bound
+  bool substep = false;                 // for factors above 1: sub-step instead of being refused
+  int steps = 1000;
+  std::string label() const;            // "cantilever corotational double E=1e+06 nu=0.3 dt=1.0x"
+};
+
+struct CellResult {
+  CellSpec spec;
+  Outcome outcome = Outcome::stable;
+  std::string message;       // refusal / divergence text, or a note (reoriented tets...)
+  double bound = 0, dt = 0;  // s
+  int substeps = 1;
+  std::int64_t steps_run = 0;
+  double peak_ratio = 0, growth = 0;
+  double wall_s = 0;
+  // Refused only above the bound without sub-stepping, clamped only with it, never diverged at
+  // dt <= 0.9 x the bound (a bug); a divergence above 0.9x is reported but tolerated.
+  bool acceptable() const;
+};
+
+// Scenarios: "cantilever" (the matrix's), and the extremes "inverted_input" (mesh given with
+// every other tet negatively oriented; finalize re-orients them), "inverted_state" (initial
+// positions with the free end mirrored, so tets start inverted), "rotated_rest" (the rest mesh
+// rotated 180 deg about x before add_body, cantilever under gravity), "rotated_state" (rest
+// unchanged, initial positions rotated 180 deg about the body's axis), "compress_90" (one end
+// fixed, the other pushed by a prescribed motion to 10% of the length, then held), "spin_100"
+// (free body, no gravity, initial velocity of a rigid rotation at 100 rad/s), "slivers" (a box
+// mesh whose inner node layers are squashed towards their neighbours and jittered, giving
+// near-flat tets).
+const std::vector<std::string>& scenarios();
+
+CellResult run_cell(const CellSpec& spec, int threads = 1);
+
+// Cells that diverge at dt <= 0.9x the bound because of engine bugs outside the time step
+// (reported, see docs/stability.md "Divergences"): the explanation, or nullptr. They still count
+// as unexpected (the command exits 3); the ctest checks that nothing else diverges.
+const char* known_issue(const CellSpec& spec);
+
+struct MatrixOptions {
+  bool full = true;       // false: the ctest subset (extreme corners of the matrix)
+  int steps = 2000;       // per cell
+  int threads = 1;
+  std::function<void(const CellResult&, std::size_t index, std::size_t count)> progress;
+};
+
+std::vector<CellSpec> matrix_cells(const MatrixOptions& options);
+std::vector<CellResult> run_matrix(const MatrixOptions& options);
+
+// docs/stability.md: the criteria, the counts and the tables.
+std::string markdown_report(const std::vector<CellResult>& results, const MatrixOptions& options, double wall_s);
+
+// ---- stress -------------------------------------------------------------------------------
+
+struct StressOptions {
+  double seconds = 10;          // wall-clock budget
+  int threads = 2;              // largest thread count a scene may use
+  std::uint64_t seed = 1;
+  std::int64_t max_scenes = -1; // stop after this many scenes (-1: no limit)
+  int repeat_every = 5;         // every Nth scene is run again (other thread count) and hashes compared
+  std::vector<std::filesystem::path> mesh_dirs;  // shipped meshes (*.msh, *.vtu, *.vtk), if present
+  bool use_implicit = true;     // implicit shapes when meshing_available()
+  std::function<void(const std::string&)> log;   // progress lines
+};
+
+struct StressScene {
+  std::int64_t index = 0;
+  std::uint64_t seed = 0;
+  std::string description;
+  std::string status = "ok";  // ok | diverged | unbounded | nan | irreproducible | refused
+  std::string message;
+  std::int64_t steps = 0;
+  int threads = 1;
+  std::uint64_t hash = 0;
+  double wall_s = 0;
+};
+
+struct StressReport {
+  double wall_s = 0;
+  std::int64_t scenes = 0, steps = 0, failures = 0, repeats = 0, repeat_mismatches = 0;
+  std::size_t rss_start = 0, rss_baseline = 0, rss_peak = 0, rss_end = 0;  // bytes
+  double rss_drift = 0;           // bytes, end (median of last samples) - baseline (after warm-up)
+  double rss_slope_per_min = 0;   // bytes/min, least squares over samples after warm-up
+  bool memory_flat = true;
+  std::uint64_t digest = 0;       // FNV-1a over the hashes of the first `digest_scenes` scenes
+  std::int64_t digest_scenes = 0;
+  std::vector<StressScene> failed;     // every failing scene
+  std::vector<StressScene> first;      // the first few scenes, for the report
+  std::map<std::string, int> counts;   // scenes per model / precision / mesh kind / dt mode
+  bool ok() const { return failures == 0 && repeat_mismatches == 0 && memory_flat; }
+};
+
+std::size_t resident_bytes();  // from /proc/self/statm
+StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const StressOptions& options,
+                             int threads_override = -1);
+StressReport run_stress(const StressOptions& options);
+std::string stress_text(const StressReport& report, const StressOptions& options);
+
+}  // namespace pliant::stability

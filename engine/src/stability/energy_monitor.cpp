@@ -1,0 +1,138 @@
+// EnergyMonitor: the "energy bounded" criterion shared by the stability matrix and the stress
+// runs (definition in pliant/stability.hpp).
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "pliant/kernels/node_passes.hpp"
+#include "pliant/stability.hpp"
+
+namespace pliant::stability {
+namespace {
+
+template <class F>
+void for_each_level(const World& w, F&& f) {
+  for (std::size_t b = 0; b < w.body_count(); ++b)
+    for (int l = 0; l < w.level_count(BodyId(b)); ++l) {
+      if (w.precision() == Precision::float32)
+        f(w.level<float>(BodyId(b), l));
+      else
+        f(w.level<double>(BodyId(b), l));
+    }
+}
+
+}  // namespace
+
+const char* to_string(Outcome o) {
+  switch (o) {
+    case Outcome::stable: return "stable";
+    case Outcome::clamped: return "clamped";
+    case Outcome::refused: return "refused";
+    case Outcome::diverged: return "diverged";
+  }
+  return "?";
+}
+
+void EnergyMonitor::start(const World& w) {
+  *this = EnergyMonitor{};
+  const Energies e = w.energies();
+  m0_ = e.kinetic + e.elastic;
+  p0_ = e.potential;
+  double mass = 0, diag2 = 0, strain_floor = 0;
+  for_each_level(w, [&](const auto& L) {
+    // Energy of a uniform strain at rounding-noise level (1e-4 in float, 1e-7 in double): below it
+    // an energy ratio says nothing about stability.
+    using T = std::remove_cv_t<std::remove_reference_t<decltype(L.mass[0])>>;
+    const double eps = sizeof(T) == 4 ? 1e-4 : 1e-7;
+    double volume = 0;
+    for (std::size_t t = 0; t < L.tet_count; ++t) volume += double(L.volume[t]);
+    const double modulus = L.model == ForceModel::springs ? 3.0 * double(L.young) : double(L.lambda) + 2 * double(L.mu);
+    strain_floor += 0.5 * modulus * eps * eps * volume;
+    std::vector<double> xs;
+    double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      mass += double(L.mass[n]);
+      for (int k = 0; k < 3; ++k) {
+        lo[k] = std::min(lo[k], double(L.X[k][n]));
+        hi[k] = std::max(hi[k], double(L.X[k][n]));
+      }
+      if (L.state[n] != kNodeFree)
+        for (int k = 0; k < 3; ++k) xs.push_back(double(L.x[k][n]));
+    }
+    diag2 = std::max(diag2, (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
+    last_x_.push_back(std::move(xs));
+  });
+  floor_ = 1e-9 * mass * 9.81 * std::sqrt(diag2) + strain_floor;
+  kinetic_.push_back(e.kinetic);
+  if (!std::isfinite(m0_) || !std::isfinite(p0_)) why_ = "non-finite initial energy";
+}
+
+void EnergyMonitor::after_step(const World& w) {
+  std::size_t li = 0;
+  for_each_level(w, [&](const auto& L) {
+    std::vector<double>& xs = last_x_[li++];
+    std::size_t j = 0;
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (L.state[n] == kNodeFree) continue;
+      double dw = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double x = double(L.x[k][n]);
+        dw += double(L.f[k][n]) * (x - xs[j]);
+        xs[j++] = x;
+      }
+      work_ += std::abs(dw);
+    }
+  });
+}
+
+bool EnergyMonitor::sample(const World& w) {
+  if (!why_.empty()) return false;
+  const Energies e = w.energies();
+  double k_nonfree = 0;
+  for_each_level(w, [&](const auto& L) {
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (L.state[n] == kNodeFree) continue;
+      double v2 = 0;
+      for (int k = 0; k < 3; ++k) v2 += double(L.v[k][n]) * double(L.v[k][n]);
+      k_nonfree += 0.5 * double(L.mass[n]) * v2;
+    }
+  });
+  const double m = e.kinetic + e.elastic;
+  if (!std::isfinite(m) || !std::isfinite(e.potential)) {
+    why_ = fmt::format("non-finite energy (kinetic {}, elastic {}, potential {}) without a DivergenceError",
+                       e.kinetic, e.elastic, e.potential);
+    return false;
+  }
+  const double scale = m0_ + std::abs(e.potential - p0_) + work_ + k_nonfree + floor_;
+  last_scale_ = scale;
+  kinetic_.push_back(e.kinetic);
+  const double ratio = m / scale;
+  peak_ratio_ = std::max(peak_ratio_, ratio);
+  if (ratio > kBoundFactor) {
+    why_ = fmt::format(
+        "energy unbounded: kinetic + elastic = {:.4g} J > {} x (initial {:.4g} J + |potential change| {:.4g} J + "
+        "work of driven nodes {:.4g} J)",
+        m, kBoundFactor, m0_, std::abs(e.potential - p0_), work_ + k_nonfree);
+    return false;
+  }
+  return true;
+}
+
+bool EnergyMonitor::finish() {
+  if (!why_.empty()) return false;
+  const std::size_t n = kinetic_.size();
+  if (n < 4) return true;
+  double first = 0, second = 0;
+  for (std::size_t i = 0; i < n / 2; ++i) first = std::max(first, kinetic_[i]);
+  for (std::size_t i = n / 2; i < n; ++i) second = std::max(second, kinetic_[i]);
+  growth_ = first > 0 ? second / first : 0;
+  if (second > kGrowthFactor * first + last_scale_) {
+    why_ = fmt::format("kinetic energy grows: max {:.4g} J over the second half vs {:.4g} J over the first", second,
+                       first);
+    return false;
+  }
+  return true;
+}
+
+}  // namespace pliant::stability

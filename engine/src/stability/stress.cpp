@@ -1,0 +1,443 @@
+// Headless stress runs (issue 3 §5): random valid scenes back to back, each checked for
+// divergence, non-finite or unbounded energy; some re-run with another thread count and their
+// state hashes compared; resident memory sampled after every scene.
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fmt/format.h>
+#include <fstream>
+#include <optional>
+
+#include "pliant/error.hpp"
+#include "pliant/mesh_io.hpp"
+#include "pliant/meshing.hpp"
+#include "pliant/run.hpp"
+#include "pliant/stability.hpp"
+
+namespace pliant::stability {
+namespace {
+namespace fs = std::filesystem;
+
+std::uint64_t splitmix(std::uint64_t& s) {
+  std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+struct Rng {
+  std::uint64_t s;
+  double uniform() { return double(splitmix(s) >> 11) * 0x1.0p-53; }
+  double uniform(double a, double b) { return a + (b - a) * uniform(); }
+  double log_uniform(double a, double b) { return std::exp(uniform(std::log(a), std::log(b))); }
+  int integer(int a, int b) { return a + int(splitmix(s) % std::uint64_t(b - a + 1)); }  // [a, b]
+  bool chance(double p) { return uniform() < p; }
+};
+
+// Meshes of the shipped set and of implicit shapes, loaded once and normalised: centred on the
+// origin, bounding-box diagonal 0.2 m.
+struct MeshCache {
+  std::vector<std::pair<std::string, TetMesh>> files;
+  std::vector<std::pair<std::string, TetMesh>> implicit;
+};
+
+void normalise(TetMesh& m) {
+  Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (std::size_t i = 0; i < m.node_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], m.points[3 * i + k]);
+      hi[k] = std::max(hi[k], m.points[3 * i + k]);
+    }
+  const double d = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
+                             (hi[2] - lo[2]) * (hi[2] - lo[2]));
+  const double s = 0.2 / d;
+  for (std::size_t i = 0; i < m.node_count(); ++i)
+    for (int k = 0; k < 3; ++k) m.points[3 * i + k] = s * (m.points[3 * i + k] - 0.5 * (lo[k] + hi[k]));
+}
+
+MeshCache& cache(const StressOptions& o) {
+  static std::optional<MeshCache> c;
+  if (c) return *c;
+  c.emplace();
+  for (const auto& dir : o.mesh_dirs) {
+    std::error_code ec;
+    if (!fs::is_directory(dir, ec)) continue;
+    std::vector<fs::path> paths;
+    for (const auto& e : fs::directory_iterator(dir, ec)) {
+      const auto ext = e.path().extension().string();
+      if (ext == ".msh" || ext == ".vtu" || ext == ".vtk") paths.push_back(e.path());
+    }
+    std::sort(paths.begin(), paths.end());
+    for (const auto& p : paths) {
+      try {
+        TetMesh m = read_tet_mesh(p);
+        if (m.tet_count() == 0 || m.tet_count() > 25000) continue;
+        normalise(m);
+        c->files.emplace_back(p.filename().string(), std::move(m));
+      } catch (const std::exception&) {
+        // not a volume mesh this build reads: skip it
+      }
+    }
+  }
+  if (o.use_implicit && meshing_available()) {
+    for (const auto& name : implicit_shape_names()) {
+      try {
+        TetMesh m = mesh_implicit_shape(name, 0.012);
+        c->implicit.emplace_back(name, std::move(m));
+      } catch (const std::exception&) {
+      }
+    }
+  }
+  return *c;
+}
+
+struct Bounds {
+  Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+};
+Bounds bounds(const TetMesh& m) {
+  Bounds b;
+  for (std::size_t i = 0; i < m.node_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      b.lo[k] = std::min(b.lo[k], m.points[3 * i + k]);
+      b.hi[k] = std::max(b.hi[k], m.points[3 * i + k]);
+    }
+  return b;
+}
+
+struct Scene {
+  WorldDef world;
+  BodyDef body;
+  TetMesh mesh;
+  std::string description, mesh_kind, dt_mode;
+  double spin = 0;        // rad/s about z, initial velocity
+  double dt_factor = 0;   // 0: auto
+  bool substep = false;
+  int steps = 0;
+};
+
+Scene random_scene(std::uint64_t seed, const StressOptions& o) {
+  Rng r{seed};
+  Scene s;
+  const MeshCache& mc = cache(o);
+  const double pick = r.uniform();
+  if (pick < 0.3 && !mc.files.empty()) {
+    const auto& f = mc.files[std::size_t(r.integer(0, int(mc.files.size()) - 1))];
+    s.mesh = f.second;
+    s.mesh_kind = "file";
+    s.description = f.first;
+  } else if (pick < 0.45 && !mc.implicit.empty()) {
+    const auto& f = mc.implicit[std::size_t(r.integer(0, int(mc.implicit.size()) - 1))];
+    s.mesh = f.second;
+    s.mesh_kind = "implicit";
+    s.description = "implicit " + f.first;
+  } else {
+    const Vec3d size{r.uniform(0.05, 0.3), r.uniform(0.02, 0.1), r.uniform(0.02, 0.1)};
+    const std::array<int, 3> cells{r.integer(1, 10), r.integer(1, 4), r.integer(1, 4)};
+    const int tpc = r.chance(0.5) ? 5 : 6;
+    s.mesh = make_box_mesh({0, 0, 0}, size, cells, tpc);
+    s.mesh_kind = "box";
+    s.description = fmt::format("box {:.3f}x{:.3f}x{:.3f} {}x{}x{}x{}", size[0], size[1], size[2], cells[0], cells[1],
+                                cells[2], tpc);
+  }
+  const ForceModel models[] = {ForceModel::linear, ForceModel::stvk, ForceModel::corotational, ForceModel::springs};
+  s.body.name = "stress";
+  s.body.model = models[r.integer(0, 3)];
+  s.world.precision = r.chance(0.5) ? Precision::float32 : Precision::float64;
+  s.world.threads = r.integer(1, std::max(1, o.threads));
+  s.world.gravity = r.chance(0.7) ? Vec3d{0, 0, -9.81} : Vec3d{0, 0, 0};
+  s.world.time_step.courant = r.chance(0.7) ? 0.5 : r.uniform(0.2, 0.5);
+  auto& mat = s.body.material;
+  mat.young = r.log_uniform(1e3, 1e7);
+  const double nus[] = {0.0, 0.25, 0.3, 0.4, 0.45, 0.49};
+  mat.poisson = nus[r.integer(0, 5)];
+  mat.density = r.uniform(500, 2000);
+  const int damping = r.integer(0, 3);
+  if (damping == 1) mat.damping.mass = r.uniform(0, 5);
+  if (damping == 2) mat.damping.stiffness = r.log_uniform(1e-6, 1e-3);
+  if (damping == 3) {
+    mat.damping.bulk_viscosity = r.log_uniform(1e-2, 10);
+    mat.damping.shear_viscosity = r.log_uniform(1e-2, 10);
+  }
+  const Bounds b = bounds(s.mesh);
+  const double ext = b.hi[0] - b.lo[0];
+  // Valid scenes stay in each model's range: the strain of the body's own weight, rho g D / E,
+  // at most 0.5 (0.1 for stvk, whose energy collapses under large compression and stiffens
+  // without bound in stretch, so that the rest-state Courant bound stops holding: see
+  // docs/stability.md, the E = 100 Pa cantilever). The stability matrix covers the extremes.
+  const bool stvk = s.body.model == ForceModel::stvk;
+  {
+    const double D = std::sqrt((b.hi[0] - b.lo[0]) * (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) * (b.hi[1] - b.lo[1]) +
+                               (b.hi[2] - b.lo[2]) * (b.hi[2] - b.lo[2]));
+    const double min_young = (stvk ? 10.0 : 2.0) * mat.density * 9.81 * D;
+    if (mat.young < min_young) mat.young = min_young * (1 + r.uniform());
+  }
+  const double amp = stvk ? 0.1 : 0.3;  // prescribed offsets, fraction of the length
+  RegionDef low, high;
+  low.min = {b.lo[0] - 1, b.lo[1] - 1, b.lo[2] - 1};
+  low.max = {b.lo[0] + 0.1 * ext, b.hi[1] + 1, b.hi[2] + 1};
+  high.min = {b.hi[0] - 0.1 * ext, b.lo[1] - 1, b.lo[2] - 1};
+  high.max = {b.hi[0] + 1, b.hi[1] + 1, b.hi[2] + 1};
+  const bool fixed = r.chance(0.6);
+  if (fixed) s.body.fixed.push_back(low);
+  if (r.chance(0.35)) {
+    PrescribedMotionDef m;
+    m.region = high;
+    double t = 0;
+    m.keyframes.push_back({0, {0, 0, 0}});
+    const int n = r.integer(1, 4);
+    // Keyframes at most 5% of the P-wave speed apart: a prescribed motion, not an impact.
+    const double nu = mat.poisson, E = mat.young;
+    const double cp = std::sqrt(E * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / mat.density);
+    Vec3d prev{0, 0, 0};
+    for (int i = 0; i < n; ++i) {
+      const Vec3d off{r.uniform(-amp, amp) * ext, r.uniform(-0.7, 0.7) * amp * ext, r.uniform(-0.7, 0.7) * amp * ext};
+      const double dist = std::sqrt((off[0] - prev[0]) * (off[0] - prev[0]) + (off[1] - prev[1]) * (off[1] - prev[1]) +
+                                    (off[2] - prev[2]) * (off[2] - prev[2]));
+      t += std::max(r.uniform(0.02, 0.3), dist / (0.05 * cp));
+      m.keyframes.push_back({t, off});
+      prev = off;
+    }
+    s.body.prescribed.push_back(m);
+  } else if (r.chance(0.4)) {
+    NodalLoadDef l;
+    l.region = high;
+    const double scale = mat.young * 1e-3 * ext * ext;  // about 0.1% strain over the cross-section
+    l.total_force = {r.uniform(-1, 1) * scale, r.uniform(-1, 1) * scale, r.uniform(-1, 1) * scale};
+    s.body.loads.push_back(l);
+  }
+  if (!fixed && s.body.prescribed.empty() && r.chance(0.4)) {
+    // Up to 100 rad/s, but with a centrifugal strain rho w^2 R^2 / E of at most 0.2 (0.05 for
+    // stvk): a faster spin of a soft body tears it apart, outside every model's range.
+    const double R = 0.5 * std::sqrt((b.hi[0] - b.lo[0]) * (b.hi[0] - b.lo[0]) + (b.hi[1] - b.lo[1]) * (b.hi[1] - b.lo[1]));
+    const double w_max = std::min(100.0, std::sqrt((stvk ? 0.05 : 0.2) * mat.young / (mat.density * R * R)));
+    s.spin = r.uniform(-w_max, w_max);
+  }
+  const double mode = r.uniform();
+  if (mode < 0.4) {
+    s.dt_mode = "auto";
+  } else if (mode < 0.8) {
+    const double f[] = {0.5, 0.9, 1.0};
+    s.dt_factor = f[r.integer(0, 2)];
+    s.dt_mode = fmt::format("{:g}x", s.dt_factor);
+  } else {
+    s.dt_factor = r.uniform(1.1, 3.0);
+    s.substep = true;
+    s.dt_mode = "substep";
+  }
+  const double tets = double(s.mesh.tet_count());
+  s.steps = int(std::clamp(4e6 / tets, 200.0, 3000.0));
+  s.description = fmt::format("{} ({} tets), {} {}, E={:.3g} nu={:g} rho={:.0f}{}{}{}{}{}, dt {}, {} thr",
+                              s.description, s.mesh.tet_count(), to_string(s.body.model),
+                              to_string(s.world.precision), mat.young, mat.poisson, mat.density,
+                              damping == 1 ? ", mass damping" : damping == 2 ? ", Rayleigh damping" : damping == 3 ? ", viscosity" : "",
+                              fixed ? ", fixed end" : "", s.body.prescribed.empty() ? "" : ", prescribed",
+                              s.body.loads.empty() ? "" : ", load", s.spin != 0 ? fmt::format(", spin {:.0f} rad/s", s.spin) : "",
+                              s.dt_mode, s.world.threads);
+  return s;
+}
+
+}  // namespace
+
+std::size_t resident_bytes() {
+  std::ifstream f("/proc/self/statm");
+  std::size_t size = 0, resident = 0;
+  if (!(f >> size >> resident)) return 0;
+  return resident * std::size_t(sysconf(_SC_PAGESIZE));
+}
+
+StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const StressOptions& o, int threads_override) {
+  const auto t0 = std::chrono::steady_clock::now();
+  Scene sc = random_scene(scene_seed, o);
+  if (threads_override > 0) sc.world.threads = threads_override;
+  StressScene out;
+  out.index = index;
+  out.seed = scene_seed;
+  out.description = sc.description;
+  out.threads = sc.world.threads;
+  auto done = [&]() {
+    out.wall_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    return out;
+  };
+  std::optional<World> world;
+  try {
+    if (sc.dt_factor > 0) {
+      WorldDef probe_def = sc.world;
+      World probe(probe_def);
+      probe.add_body(sc.body, sc.mesh);
+      sc.world.time_step.dt = sc.dt_factor * probe.stable_dt();
+      sc.world.time_step.substep = sc.substep;
+    }
+    world.emplace(sc.world);
+    world->add_body(sc.body, sc.mesh);
+  } catch (const InputError& e) {
+    out.status = "refused";
+    out.message = e.what();
+    return done();
+  }
+  World& w = *world;
+  if (sc.spin != 0) {
+    auto apply = [&](auto& L) {
+      using T = std::remove_reference_t<decltype(L.v[0][0])>;
+      double c[3] = {0, 0, 0};
+      for (std::size_t n = 0; n < L.node_count; ++n)
+        for (int k = 0; k < 3; ++k) c[k] += double(L.X[k][n]) / double(L.node_count);
+      for (std::size_t n = 0; n < L.node_count; ++n) {
+        L.v[0][n] = T(-sc.spin * (double(L.X[1][n]) - c[1]));
+        L.v[1][n] = T(sc.spin * (double(L.X[0][n]) - c[0]));
+      }
+    };
+    if (w.precision() == Precision::float32)
+      apply(w.level<float>(0));
+    else
+      apply(w.level<double>(0));
+  }
+  EnergyMonitor mon;
+  mon.start(w);
+  bool ok = true;
+  try {
+    for (int i = 1; i <= sc.steps && ok; ++i) {
+      w.step();
+      mon.after_step(w);
+      if (i % 20 == 0 || i == sc.steps) ok = mon.sample(w);
+    }
+    if (ok) ok = mon.finish();
+  } catch (const DivergenceError& e) {
+    out.status = "diverged";
+    out.message = e.what();
+    out.steps = w.steps();
+    return done();
+  }
+  out.steps = w.steps() * w.substeps();
+  out.hash = w.state_hash();
+  if (!ok) {
+    out.status = mon.why().rfind("non-finite", 0) == 0 ? "nan" : "unbounded";
+    out.message = mon.why();
+  }
+  return done();
+}
+
+StressReport run_stress(const StressOptions& o) {
+  StressReport rep;
+  auto log = [&](const std::string& s) {
+    if (o.log) o.log(s);
+  };
+  rep.rss_start = resident_bytes();
+  const MeshCache& mc = cache(o);  // loaded before the clock and the memory baseline start
+  log(fmt::format("stress: seed {}, {} s, up to {} threads; {} shipped meshes, {} implicit shapes{}", o.seed,
+                  o.seconds, o.threads, mc.files.size(), mc.implicit.size(),
+                  meshing_available() ? "" : " (no meshing in this build)"));
+  const auto t0 = std::chrono::steady_clock::now();
+  auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
+  std::vector<std::pair<double, double>> samples;  // (s, bytes)
+  std::uint64_t seq = o.seed;
+  std::uint64_t digest = 1469598103934665603ull;
+  const std::int64_t digest_scenes = 10;
+  double next_progress = 10;
+  while ((o.max_scenes < 0 || rep.scenes < o.max_scenes) && (elapsed() < o.seconds || rep.scenes == 0)) {
+    const std::uint64_t scene_seed = splitmix(seq);
+    StressScene s = run_stress_scene(scene_seed, rep.scenes, o);
+    ++rep.scenes;
+    rep.steps += s.steps;
+    {
+      Scene sc = random_scene(scene_seed, o);
+      ++rep.counts["model " + std::string(to_string(sc.body.model))];
+      ++rep.counts["precision " + std::string(to_string(sc.world.precision))];
+      ++rep.counts["mesh " + sc.mesh_kind];
+      ++rep.counts["dt " + (sc.dt_mode.back() == 'x' ? std::string("explicit") : sc.dt_mode)];
+      ++rep.counts[fmt::format("threads {}", s.threads)];
+    }
+    if (s.status != "ok") {
+      ++rep.failures;
+      rep.failed.push_back(s);
+      log(fmt::format("FAIL scene {} (seed {:#x}): {}: {} [{}]", s.index, s.seed, s.status, s.message, s.description));
+    } else if (o.repeat_every > 0 && s.index % o.repeat_every == 0) {
+      // The same scene again with another thread count: the state hash must be identical.
+      const StressScene again = run_stress_scene(scene_seed, s.index, o, s.threads == 1 ? std::max(2, o.threads) : 1);
+      ++rep.repeats;
+      if (again.hash != s.hash || again.status != s.status) {
+        ++rep.repeat_mismatches;
+        StressScene bad = s;
+        bad.status = "irreproducible";
+        bad.message = fmt::format("hash {} with {} threads, {} with {} threads", hash_hex(s.hash), s.threads,
+                                  hash_hex(again.hash), again.threads);
+        rep.failed.push_back(bad);
+        log(fmt::format("FAIL scene {} (seed {:#x}): {} [{}]", s.index, s.seed, bad.message, s.description));
+      }
+    }
+    if (rep.scenes <= digest_scenes) {
+      for (int i = 0; i < 8; ++i) {
+        digest ^= (s.hash >> (8 * i)) & 0xff;
+        digest *= 1099511628211ull;
+      }
+      rep.digest = digest;
+      rep.digest_scenes = rep.scenes;
+    }
+    if (rep.first.size() < 12) rep.first.push_back(s);
+    const std::size_t rss = resident_bytes();
+    rep.rss_peak = std::max(rep.rss_peak, rss);
+    samples.emplace_back(elapsed(), double(rss));
+    if (elapsed() >= next_progress) {
+      next_progress = elapsed() + (o.seconds > 600 ? 60 : 10);
+      log(fmt::format("stress: {:.0f} s, {} scenes, {} steps, {} failures, RSS {:.1f} MiB (peak {:.1f})", elapsed(),
+                      rep.scenes, rep.steps, rep.failures + rep.repeat_mismatches, rss / 1048576.0,
+                      rep.rss_peak / 1048576.0));
+    }
+  }
+  rep.wall_s = elapsed();
+  rep.rss_end = resident_bytes();
+  // Memory: baseline = median over the samples of the first 10% of the run after a warm-up
+  // (first 10% of the samples: allocator pools and thread arenas), end = median over the last 10%.
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + long(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const std::size_t n = samples.size();
+  const std::size_t warm = n / 10;
+  const std::size_t win = std::max<std::size_t>(1, n / 10);
+  std::vector<double> a, z;
+  for (std::size_t i = warm; i < std::min(n, warm + win); ++i) a.push_back(samples[i].second);
+  for (std::size_t i = n > win ? n - win : 0; i < n; ++i) z.push_back(samples[i].second);
+  rep.rss_baseline = std::size_t(median(a));
+  rep.rss_drift = median(z) - median(a);
+  if (n - warm >= 3) {
+    double st = 0, sy = 0, stt = 0, sty = 0;
+    const double m = double(n - warm);
+    for (std::size_t i = warm; i < n; ++i) {
+      st += samples[i].first;
+      sy += samples[i].second;
+      stt += samples[i].first * samples[i].first;
+      sty += samples[i].first * samples[i].second;
+    }
+    const double den = m * stt - st * st;
+    rep.rss_slope_per_min = den > 0 ? 60 * (m * sty - st * sy) / den : 0;
+  }
+  // Flat: the end sits within max(16 MiB, 10% of the baseline) of the baseline.
+  rep.memory_flat = rep.rss_drift <= std::max(16.0 * 1048576.0, 0.1 * double(rep.rss_baseline));
+  return rep;
+}
+
+std::string stress_text(const StressReport& r, const StressOptions& o) {
+  std::string s;
+  s += fmt::format("seed {}, {:.0f} s wall, up to {} threads\n", o.seed, r.wall_s, o.threads);
+  s += fmt::format("scenes {}, steps {} ({:.0f} steps/s), failures {}, repeats {} (hash mismatches {})\n", r.scenes,
+                   r.steps, r.wall_s > 0 ? double(r.steps) / r.wall_s : 0.0, r.failures, r.repeats,
+                   r.repeat_mismatches);
+  s += fmt::format("RSS start {:.1f} MiB, baseline {:.1f} MiB, peak {:.1f} MiB, end {:.1f} MiB, drift {:+.2f} MiB, "
+                   "slope {:+.3f} MiB/min: {}\n",
+                   r.rss_start / 1048576.0, r.rss_baseline / 1048576.0, r.rss_peak / 1048576.0,
+                   r.rss_end / 1048576.0, r.rss_drift / 1048576.0, r.rss_slope_per_min / 1048576.0,
+                   r.memory_flat ? "flat" : "GROWING");
+  s += fmt::format("digest of the first {} scene hashes: {}\n", r.digest_scenes, hash_hex(r.digest));
+  s += "mix:";
+  for (const auto& [k, v] : r.counts) s += fmt::format(" {}={}", k, v);
+  s += "\n";
+  for (const auto& f : r.failed)
+    s += fmt::format("failed scene {} (seed {:#x}): {}: {} [{}]\n", f.index, f.seed, f.status, f.message, f.description);
+  s += r.ok() ? "result: OK\n" : "result: FAILED\n";
+  return s;
+}
+
+}  // namespace pliant::stability
