@@ -4,15 +4,33 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <type_traits>
 
 #include "pliant/kernels/element_context.hpp"
 
 namespace pliant::detail {
 
+// T is float or double, or a vector of them (simd.hpp: one tet per lane); the helpers below
+// are written once for both so that a lane computes exactly what the scalar code computes.
 template <class T>
 struct Mat3 {
   T m[3][3];
 };
+
+template <class T>
+struct ScalarOf {
+  using type = std::remove_cvref_t<decltype(T{}[0])>;
+};
+template <>
+struct ScalarOf<float> {
+  using type = float;
+};
+template <>
+struct ScalarOf<double> {
+  using type = double;
+};
+template <class T>
+using scalar_t = typename ScalarOf<T>::type;
 
 // One tet's corner data, loaded from the SoA arrays.
 template <class T>
@@ -87,7 +105,7 @@ template <class T>
 inline Mat3<T> sym(const Mat3<T>& A) {
   Mat3<T> S;
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) S.m[i][j] = T(0.5) * (A.m[i][j] + A.m[j][i]);
+    for (int j = 0; j < 3; ++j) S.m[i][j] = scalar_t<T>(0.5) * (A.m[i][j] + A.m[j][i]);
   return S;
 }
 
@@ -104,11 +122,12 @@ inline T ddot(const Mat3<T>& A, const Mat3<T>& B) {
 
 // Isotropic Hooke law on a symmetric strain: a tr(e) I + 2 b e.
 template <class T>
-inline Mat3<T> hooke(const Mat3<T>& e, T a, T b) {
+inline Mat3<T> hooke(const Mat3<T>& e, scalar_t<T> a, scalar_t<T> b) {
+  using S = scalar_t<T>;
   Mat3<T> s;
   const T tr = trace(e);
   for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) s.m[i][j] = T(2) * b * e.m[i][j] + (i == j ? a * tr : T(0));
+    for (int j = 0; j < 3; ++j) s.m[i][j] = S(2) * b * e.m[i][j] + (i == j ? a * tr : T{});
   return s;
 }
 
@@ -120,11 +139,12 @@ inline void add_to(Mat3<T>& A, const Mat3<T>& B) {
 
 template <class T>
 inline Mat3<T> quat_to_matrix(const T q[4]) {
+  using S = scalar_t<T>;
   const T w = q[0], x = q[1], y = q[2], z = q[3];
   Mat3<T> R;
-  R.m[0][0] = 1 - 2 * (y * y + z * z); R.m[0][1] = 2 * (x * y - w * z);     R.m[0][2] = 2 * (x * z + w * y);
-  R.m[1][0] = 2 * (x * y + w * z);     R.m[1][1] = 1 - 2 * (x * x + z * z); R.m[1][2] = 2 * (y * z - w * x);
-  R.m[2][0] = 2 * (x * z - w * y);     R.m[2][1] = 2 * (y * z + w * x);     R.m[2][2] = 1 - 2 * (x * x + y * y);
+  R.m[0][0] = S(1) - S(2) * (y * y + z * z); R.m[0][1] = S(2) * (x * y - w * z);     R.m[0][2] = S(2) * (x * z + w * y);
+  R.m[1][0] = S(2) * (x * y + w * z);     R.m[1][1] = S(1) - S(2) * (x * x + z * z); R.m[1][2] = S(2) * (y * z - w * x);
+  R.m[2][0] = S(2) * (x * z - w * y);     R.m[2][1] = S(2) * (y * z + w * x);     R.m[2][2] = S(1) - S(2) * (x * x + y * y);
   return R;
 }
 

@@ -1,5 +1,7 @@
-// One step of every level (element pass -> gather -> integrate -> prescribed motion), in the
-// order DESIGN.md §4 gives. Allocation-free: contexts are stack structs of pointers.
+// One step of every level (element pass -> gather + integrate -> prescribed motion), in the
+// order DESIGN.md §4 gives. Allocation-free: contexts are stack structs of pointers. Two
+// parallel loops per level: the element pass over tets, then the fused gather + integrate over
+// nodes (see docs/performance.md for why and for the grain sizes).
 #include "simulation.hpp"
 
 #include <cmath>
@@ -11,8 +13,13 @@
 namespace pliant::detail {
 namespace {
 
-constexpr std::size_t kTetGrain = 1024;   // tets per task (~50 us of work: TBB overhead < 1%)
-constexpr std::size_t kNodeGrain = 1024;  // nodes per task
+// Tasks of about 1024 tets (5-20 us) or nodes (3-5 us): enough tasks for balance on 2 threads
+// from about 10k tets on. Below kSerialBelow items a loop runs on the calling thread: waking a
+// second thread costs more than it saves there (1k tets: 2 threads were 1.4x slower than 1).
+constexpr std::size_t kTetGrain = 1024;
+constexpr std::size_t kNodeGrain = 1024;
+constexpr std::size_t kSerialBelow = 2048;
+std::size_t grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
 
 template <class T>
 ElementContext<T> element_context(const Level<T>& L) {
@@ -75,7 +82,7 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
       Level<T>& L = body.levels[l];
       const ElementContext<T> ec = element_context(L);
       const ElementPass<T> pass = force_kernel<T>(L.model);
-      exec.parallel_for(L.tet_count, kTetGrain, [&](Range r) { pass(ec, r); });
+      exec.parallel_for(L.tet_count, grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
 
       GatherContext<T> gc;
       gc.offsets = L.incidence_offsets.data();
@@ -85,8 +92,6 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
         gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();
         gc.f[k] = L.f[k].data();
       }
-      exec.parallel_for(L.node_count, kNodeGrain, [&](Range r) { gather_forces(gc, r); });
-
       IntegrateContext<T> ic;
       for (int k = 0; k < 3; ++k) {
         ic.x[k] = L.x[k].data();
@@ -98,8 +103,11 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
       ic.state = L.state.data();
       ic.dt = T(dt);
       ic.mass_damping = L.mass_damping;
-      const bool finite =
-          exec.parallel_all(L.node_count, kNodeGrain, [&](Range r) { return integrate_symplectic_euler(ic, r); });
+      // Gather and integrate fused: each node's force is used while in registers (the same
+      // bits as the two passes). Nodes only read corner forces, which the element pass has
+      // finished writing, so node ranges are independent.
+      const bool finite = exec.parallel_all(L.node_count, grain(L.node_count, kNodeGrain),
+                                            [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
       if (!finite) {
         std::size_t bad = 0;
         for (std::size_t n = 0; n < L.node_count; ++n) {

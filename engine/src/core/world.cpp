@@ -99,7 +99,11 @@ World::~World() = default;
 World::World(World&&) noexcept = default;
 World& World::operator=(World&&) noexcept = default;
 
-TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) {
+namespace {
+
+// build_mesh, also giving the node map of the locality renumbering (empty for boxes, which are
+// in grid order already).
+TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std::vector<std::int32_t>* old_to_new) {
   MeshLoadReport local;
   MeshLoadReport& rep = report ? *report : local;
   TetMesh mesh;
@@ -112,10 +116,52 @@ TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) {
   if (!(src.scale > 0 && std::isfinite(src.scale)))
     throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
   if (src.scale != 1.0 || src.translate != Vec3d{0, 0, 0}) transform_mesh(mesh, src.scale, src.translate);
+  // Files and meshers come in no useful order; the kernels stream only if neighbours in space
+  // are neighbours in memory (docs/performance.md). Readers and the mesher return finalized
+  // meshes, so every index is valid here.
+  std::vector<std::int32_t> map;
+  if (src.kind != MeshSourceDef::Kind::box) map = renumber_for_locality(mesh);
+  if (old_to_new) *old_to_new = std::move(map);
   return mesh;
 }
 
-BodyId World::add_body(const BodyDef& def) { return add_body(def, build_mesh(def.mesh)); }
+// RegionDef::nodes count in the mesh as loaded (the file's numbering): map them to the
+// renumbered mesh. Indices out of range stay as given, so that the error names them.
+BodyDef with_mapped_node_regions(const BodyDef& def, const std::vector<std::int32_t>& old_to_new) {
+  BodyDef out = def;
+  auto map = [&](RegionDef& r) {
+    if (r.kind != RegionDef::Kind::nodes) return;
+    for (auto& n : r.nodes)
+      if (n >= 0 && std::size_t(n) < old_to_new.size()) n = old_to_new[std::size_t(n)];
+  };
+  for (auto& r : out.fixed) map(r);
+  for (auto& p : out.prescribed) map(p.region);
+  for (auto& l : out.loads) map(l.region);
+  return out;
+}
+
+bool has_node_regions(const BodyDef& def) {
+  for (const auto& r : def.fixed)
+    if (r.kind == RegionDef::Kind::nodes) return true;
+  for (const auto& p : def.prescribed)
+    if (p.region.kind == RegionDef::Kind::nodes) return true;
+  for (const auto& l : def.loads)
+    if (l.region.kind == RegionDef::Kind::nodes) return true;
+  return false;
+}
+
+}  // namespace
+
+TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) { return build_mesh_mapped(src, report, nullptr); }
+
+BodyId World::add_body(const BodyDef& def) {
+  std::vector<std::int32_t> old_to_new;
+  TetMesh mesh = build_mesh_mapped(def.mesh, nullptr, &old_to_new);
+  if (old_to_new.empty() || !has_node_regions(def)) return add_body(def, std::move(mesh));
+  const BodyId id = add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh));
+  impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
+  return id;
+}
 
 BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
   if (find_body(def.name) >= 0) throw InputError(fmt::format("a body named '{}' exists already", def.name));

@@ -41,4 +41,10 @@ struct IntegrateContext {
 template <class T>
 bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range nodes);
 
+// gather_forces and then integrate_symplectic_euler in one sweep over the nodes: each node's
+// force is summed, stored in g.f and used at once, so f is not read back from memory. The same
+// results, bit for bit, as the two passes one after the other (i.f must be g.f).
+template <class T>
+bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const IntegrateContext<T>& i, Range nodes);
+
 }  // namespace pliant

@@ -1,0 +1,138 @@
+// Private helpers of the element kernels, batched: W consecutive tets in the lanes of a vector
+// (simd.hpp). The loads gather each tet's corners, the stores write W corner forces at once,
+// and the rotation extraction runs the Newton iteration of tet_local.hpp on every lane until
+// all lanes have converged, freezing each lane at the iterate the scalar loop would return.
+#pragma once
+#include <cstddef>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+
+#include "simd.hpp"
+#include "tet_local.hpp"
+
+namespace pliant::detail {
+
+template <class T>
+struct TetBatch {
+  using V = typename simd::Pack<T>::V;
+  static constexpr int W = simd::Pack<T>::W;
+  std::int32_t n[4][W];  // corner node indices (lanes past the end repeat the last tet)
+  V x[4][3];             // corner positions (m)
+  V g[3][3];             // rest gradients of corners 1..3 (1/m)
+  V volume;              // m^3
+};
+
+// Loads tets [t, t + count), count <= W, corner indices, positions, gradients and volumes.
+template <class T>
+inline void load_batch(const ElementContext<T>& c, std::size_t t, int count, TetBatch<T>& e) {
+  constexpr int W = TetBatch<T>::W;
+  for (int a = 0; a < 4; ++a) {
+    if (count == W) {
+      std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
+    } else {
+      for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
+    }
+  }
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) e.x[a][k] = simd::gather(c.x[k], e.n[a]);
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
+  e.volume = simd::load(c.volume + t, count);
+}
+
+template <class T>
+inline void gather_corners(const T* const y[3], const TetBatch<T>& e, typename TetBatch<T>::V out[4][3]) {
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) out[a][k] = simd::gather(y[k], e.n[a]);
+}
+
+// store_corner_forces of tet_local.hpp, W tets at once.
+template <class T>
+inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t, int count,
+                                      const Mat3<typename TetBatch<T>::V>& P, const typename TetBatch<T>::V g[3][3],
+                                      const typename TetBatch<T>::V& volume) {
+  using V = typename TetBatch<T>::V;
+  V f0[3] = {V{}, V{}, V{}};
+  for (int a = 0; a < 3; ++a) {
+    for (int i = 0; i < 3; ++i) {
+      const V fi = -volume * (P.m[i][0] * g[a][0] + P.m[i][1] * g[a][1] + P.m[i][2] * g[a][2]);
+      simd::store(c.corner_force[3 * (a + 1) + i] + t, count, fi);
+      f0[i] -= fi;
+    }
+  }
+  for (int i = 0; i < 3; ++i) simd::store(c.corner_force[i] + t, count, f0[i]);
+}
+
+// extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing
+// at the iteration where the scalar loop breaks; the loop ends when every lane of every batch
+// has stopped (or after the same maximum number of iterations). K > 1 interleaves independent
+// chains through the iteration's long dependency chain, but on the machine measured
+// (docs/performance.md) register spills made K = 2 slower than K = 1, which the pass uses.
+template <class T, int K>
+__attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<typename simd::Pack<T>::V> A[K],
+                                                                    typename simd::Pack<T>::V q[K][4],
+                                                                    Mat3<typename simd::Pack<T>::V> R[K]) {
+  using V = typename simd::Pack<T>::V;
+  using M = typename simd::Pack<T>::M;
+  constexpr int kMaxIterations = 16;
+  const T tol = std::numeric_limits<T>::epsilon() < T(1e-10) ? T(1e-12) : T(4e-6);  // rad
+  M active[K];
+  for (int b = 0; b < K; ++b) {
+    R[b] = quat_to_matrix(q[b]);
+    active[b] = ~M{};
+  }
+  for (int it = 0; it < kMaxIterations; ++it) {
+    V g[K][3], w[K][3], tr[K];
+    M newton[K];
+    M fallback = M{};
+    for (int b = 0; b < K; ++b) {
+      const Mat3<V> Mt = mul_tn(R[b], A[b]);
+      g[b][0] = Mt.m[2][1] - Mt.m[1][2];
+      g[b][1] = Mt.m[0][2] - Mt.m[2][0];
+      g[b][2] = Mt.m[1][0] - Mt.m[0][1];
+      tr[b] = trace(Mt);
+      const V h00 = tr[b] - Mt.m[0][0], h11 = tr[b] - Mt.m[1][1], h22 = tr[b] - Mt.m[2][2];
+      const V h01 = T(-0.5) * (Mt.m[0][1] + Mt.m[1][0]);
+      const V h02 = T(-0.5) * (Mt.m[0][2] + Mt.m[2][0]);
+      const V h12 = T(-0.5) * (Mt.m[1][2] + Mt.m[2][1]);
+      const V c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
+      const V det = h00 * c00 + h01 * c01 + h02 * c02;
+      const V scale = tr[b] * tr[b] * tr[b];
+      newton[b] = (h00 > 0) & (h00 * h11 - h01 * h01 > 0) & (det > T(1e-6) * scale);
+      const V c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
+      const V inv = T(1) / det;
+      w[b][0] = (c00 * g[b][0] + c01 * g[b][1] + c02 * g[b][2]) * inv;
+      w[b][1] = (c01 * g[b][0] + c11 * g[b][1] + c12 * g[b][2]) * inv;
+      w[b][2] = (c02 * g[b][0] + c12 * g[b][1] + c22 * g[b][2]) * inv;
+      fallback |= ~newton[b] & active[b];
+    }
+    // The gradient step only where Newton's does not apply (rare: inverted or flat tets).
+    if (simd::any(fallback)) {
+      for (int b = 0; b < K; ++b) {
+        const V s = T(1) / (simd::abs(tr[b]) + std::numeric_limits<T>::min() * T(1e6));
+        for (int k = 0; k < 3; ++k) w[b][k] = newton[b] ? w[b][k] : g[b][k] * s;
+      }
+    }
+    M any_active = M{};
+    for (int b = 0; b < K; ++b) {
+      const V angle2 = w[b][0] * w[b][0] + w[b][1] * w[b][1] + w[b][2] * w[b][2];
+      active[b] &= (angle2 > tol * tol);  // converged lanes (and NaN) stop here, as the scalar break
+      any_active |= active[b];
+    }
+    if (!simd::any(any_active)) break;
+    for (int b = 0; b < K; ++b) {
+      const V d[4] = {V{} + T(1), T(0.5) * w[b][0], T(0.5) * w[b][1], T(0.5) * w[b][2]};
+      const V* qb = q[b];
+      const V n[4] = {qb[0] * d[0] - qb[1] * d[1] - qb[2] * d[2] - qb[3] * d[3],
+                      qb[0] * d[1] + qb[1] * d[0] + qb[2] * d[3] - qb[3] * d[2],
+                      qb[0] * d[2] - qb[1] * d[3] + qb[2] * d[0] + qb[3] * d[1],
+                      qb[0] * d[3] + qb[1] * d[2] - qb[2] * d[1] + qb[3] * d[0]};
+      const V inv = T(1) / simd::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+      for (int k = 0; k < 4; ++k) q[b][k] = active[b] ? n[k] * inv : q[b][k];
+      R[b] = quat_to_matrix(q[b]);
+    }
+  }
+}
+
+}  // namespace pliant::detail
