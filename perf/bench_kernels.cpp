@@ -1,107 +1,243 @@
-// Speed of the element passes (per model), the gather, the integrator and a whole step, on box
-// meshes of about 1k, 10k and 100k tets, in float and double, on 1 and 2 threads.
-// Counters: ns per tet (or node) and millions of tets per second. Run:
-//   ./build/perf/bench_kernels --benchmark_counters_tabular=true
+// Google Benchmark programs for the passes of a step against the machine's limits, in one run:
+//   machine/triad/...     STREAM-like triad at working sets from L2 to DRAM, on 1 and 2 threads
+//   machine/peak_*/...    peak FMA (and multiply + add) rate
+//   element/<model>/...   every force model's element pass
+//   gather/, integrate/, gather_integrate/   the node passes (separate and fused)
+//   step/corotational/... a whole World::step
+//   order/...             1M tets in grid, random and renumbered memory order
+// on box meshes of about 1k, 10k, 100k and 1M tets, float and double, 1 and 2 threads.
+// Counters: ns_per_tet, Mtet_per_s, bytes_per_tet and GB_per_s (compulsory traffic, see
+// docs/performance.md), GFLOP_per_s, footprint_MiB, and roofline = (the lower of triad
+// bandwidth at that working set / bytes and peak / flops) / measured speed.
+// The machine benchmarks run first and feed the roofline of the later ones. Run e.g.
+//   ./perf/bench_kernels --benchmark_counters_tabular=true --benchmark_filter='machine|100k'
+// Each kernel iteration runs a whole step (so the state evolves as in a simulation) and times
+// only the pass named by the benchmark.
 #include <benchmark/benchmark.h>
 
-#include "pliant/kernels/element_forces.hpp"
-#include "pliant/kernels/node_passes.hpp"
-#include "pliant/world.hpp"
+#include <chrono>
+#include <initializer_list>
+#include <utility>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "pliant/perf/machine.hpp"
+#include "pliant/perf/workload.hpp"
 
 namespace {
 using namespace pliant;
+using namespace pliant::perf;
+using Clock = std::chrono::steady_clock;
 
-// cells n x n/4 x n/4 x 6 tets: n = 12 -> 1.3k, 26 -> 10k, 56 -> 110k tets.
-World make_world(ForceModel model, Precision precision, int threads, int n) {
-  WorldDef wd;
-  wd.precision = precision;
-  wd.threads = threads;
-  World w(wd);
-  BodyDef b;
-  b.name = "box";
-  b.model = model;
-  b.mesh.min = {0, 0, 0};
-  b.mesh.max = {1, 0.25, 0.25};
-  b.mesh.cells = {n, n / 4, n / 4};
-  RegionDef clamp;
-  clamp.min = {-1, -1, -1};
-  clamp.max = {1e-6, 1, 1};
-  b.fixed.push_back(clamp);
-  w.add_body(b);
-  for (int i = 0; i < 20; ++i) w.step();  // deformed state: rotations are not identity
-  return w;
+MachineLimits g_limits;
+
+// Every benchmark reports the same counters (the CSV reporter needs one column set); those
+// that do not apply are 0.
+void counters(benchmark::State& st, std::initializer_list<std::pair<const char*, double>> values) {
+  for (const char* name : {"tets", "threads", "ns_per_tet", "Mtet_per_s", "bytes_per_tet", "GB_per_s", "GFLOP_per_s",
+                           "footprint_MiB", "roof_GB_per_s", "roofline"})
+    st.counters[name] = 0;
+  for (const auto& [name, v] : values) st.counters[name] = v;
 }
 
-template <class T>
-void element_pass(benchmark::State& state, ForceModel model) {
-  const Precision p = sizeof(T) == 4 ? Precision::float32 : Precision::float64;
-  World w = make_world(model, p, 1, int(state.range(0)));
-  Level<T>& L = w.level<T>(0);
-  ElementContext<T> c;
-  for (int k = 0; k < 3; ++k) {
-    c.X[k] = L.X[k].data();
-    c.x[k] = L.x[k].data();
-    c.v[k] = L.v[k].data();
+const MachineLimits& limits() {
+  bool have_triad = false, have_peak = false;
+  for (const auto& t : g_limits.triad) have_triad |= t.threads > 0;
+  for (const auto& p : g_limits.peak) have_peak |= p.fma;
+  if (!have_triad || !have_peak) {  // machine benchmarks filtered out: a short ladder now
+    LimitOptions o;
+    o.footprints_mib = {1, 24, 256};
+    o.samples = 3;
+    const MachineLimits m = measure_machine_limits(o);
+    if (!have_triad) g_limits.triad = m.triad;
+    if (!have_peak) g_limits.peak = m.peak;
   }
-  for (int a = 0; a < 4; ++a) c.tet[a] = L.tet[a].data();
-  c.volume = L.volume.data();
-  for (int q = 0; q < 9; ++q) c.grad[q] = L.grad[q].data();
-  if (!L.rotation[0].empty())
-    for (int k = 0; k < 4; ++k) c.rotation[k] = L.rotation[k].data();
-  c.lambda = L.lambda;
-  c.mu = L.mu;
-  c.young = L.young;
-  for (int q = 0; q < 12; ++q) c.corner_force[q] = L.corner_force[q].data();
-  const Range r{0, L.tet_count};
-  for (auto _ : state) {
-    switch (model) {
-      case ForceModel::linear: element_forces_linear(c, r); break;
-      case ForceModel::stvk: element_forces_stvk(c, r); break;
-      case ForceModel::corotational: element_forces_corotational(c, r); break;
-      case ForceModel::springs: element_forces_springs(c, r); break;
+  return g_limits;
+}
+
+void machine_triad(benchmark::State& st, double mib, int threads) {
+  double best = 0;
+  for (auto _ : st) best = std::max(best, measure_triad(std::size_t(mib * 1024 * 1024), threads, 1, 0.02));
+  counters(st, {{"GB_per_s", best}, {"footprint_MiB", mib}, {"threads", threads}});
+  g_limits.triad.push_back({mib * 1024 * 1024, threads, best});
+}
+
+void machine_peak(benchmark::State& st, bool is_double, bool fma, int threads) {
+  PeakPoint best;
+  for (auto _ : st) {
+    const PeakPoint p = measure_peak(is_double, threads, fma, 0.05);
+    if (p.gflop_per_s > best.gflop_per_s) best = p;
+  }
+  counters(st, {{"GFLOP_per_s", best.gflop_per_s}, {"threads", threads}});
+  st.SetLabel(best.isa);
+  g_limits.peak.push_back(best);
+}
+
+// One world at a time (a 1M-tet double world is about half a gigabyte).
+struct WorldKey {
+  ForceModel model;
+  Precision precision;
+  std::string size;
+  Order order;
+  int threads;
+  bool operator==(const WorldKey& o) const {
+    return model == o.model && precision == o.precision && size == o.size && order == o.order && threads == o.threads;
+  }
+};
+std::unique_ptr<World> g_world;
+std::unique_ptr<WorldKey> g_key;
+
+World& world(const WorldKey& key, const std::array<int, 3>& cells) {
+  if (!g_key || !(*g_key == key)) {
+    g_world.reset();
+    g_world = std::make_unique<World>(make_box_world(key.model, key.precision, key.threads, cells, key.order));
+    g_key = std::make_unique<WorldKey>(key);
+  }
+  return *g_world;
+}
+
+Executor& executor(int threads) {
+  static std::map<int, std::unique_ptr<Executor>> pool;
+  auto& e = pool[threads];
+  if (!e) e = std::make_unique<Executor>(threads);
+  return *e;
+}
+
+void set_counters(benchmark::State& st, const World& w, Pass pass, int threads, double seconds) {
+  const double calls = double(st.iterations());
+  const double tets = double(w.tet_count(0));
+  const double per_call = seconds / calls;
+  const PassCost c = pass_cost(w, 0, pass);
+  const MachineLimits& m = limits();
+  const bool is_double = w.precision() == Precision::float64;
+  const double bw = m.bandwidth(c.footprint, threads), peak = m.peak_gflops(is_double, threads);
+  const double roof = std::max(c.bytes / (bw * 1e9), c.flops / (peak * 1e9));
+  counters(st, {{"tets", tets},
+                {"threads", threads},
+                {"ns_per_tet", per_call / tets * 1e9},
+                {"Mtet_per_s", tets / per_call * 1e-6},
+                {"bytes_per_tet", c.bytes / tets},
+                {"GB_per_s", c.bytes / per_call * 1e-9},
+                {"GFLOP_per_s", c.flops / per_call * 1e-9},
+                {"footprint_MiB", c.footprint / (1024.0 * 1024.0)},
+                {"roof_GB_per_s", bw},
+                {"roofline", roof / per_call}});
+}
+
+void pass_bench(benchmark::State& st, WorldKey key, std::array<int, 3> cells, Pass pass, int threads) {
+  World& w = world(key, cells);
+  StepRunner run(w, executor(threads));
+  double total = 0;
+  auto seconds = [](Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); };
+  for (auto _ : st) {
+    // A whole step; only `pass` is timed.
+    double timed = 0;
+    auto t0 = Clock::now();
+    run.element();
+    auto t1 = Clock::now();
+    if (pass == Pass::element) timed = seconds(t0, t1);
+    if (pass == Pass::gather_integrate) {
+      run.gather_integrate();
+      timed = seconds(t1, Clock::now());
+    } else {
+      run.gather();
+      const auto t2 = Clock::now();
+      run.integrate();
+      const auto t3 = Clock::now();
+      if (pass == Pass::gather) timed = seconds(t1, t2);
+      if (pass == Pass::integrate) timed = seconds(t2, t3);
     }
-    benchmark::DoNotOptimize(L.corner_force[0].data());
-    benchmark::ClobberMemory();
+    st.SetIterationTime(timed);
+    total += timed;
   }
-  const double tets = double(L.tet_count) * double(state.iterations());
-  state.counters["tets"] = double(L.tet_count);
-  state.counters["ns_per_tet"] = benchmark::Counter(tets * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.counters["Mtet_per_s"] = benchmark::Counter(tets * 1e-6, benchmark::Counter::kIsRate);
+  set_counters(st, w, pass, threads, total);
 }
 
-template <class T>
-void whole_step(benchmark::State& state) {
-  const Precision p = sizeof(T) == 4 ? Precision::float32 : Precision::float64;
-  World w = make_world(ForceModel::corotational, p, int(state.range(1)), int(state.range(0)));
-  for (auto _ : state) w.step();
-  const double tets = double(w.tet_count(0)) * double(state.iterations());
-  state.counters["tets"] = double(w.tet_count(0));
-  state.counters["threads"] = double(state.range(1));
-  state.counters["ns_per_tet"] = benchmark::Counter(tets * 1e-9, benchmark::Counter::kIsRate | benchmark::Counter::kInvert);
-  state.counters["Mtet_per_s"] = benchmark::Counter(tets * 1e-6, benchmark::Counter::kIsRate);
+void step_bench(benchmark::State& st, WorldKey key, std::array<int, 3> cells) {
+  World& w = world(key, cells);
+  double total = 0;
+  for (auto _ : st) {
+    const auto t0 = Clock::now();
+    w.step();
+    const double s = std::chrono::duration<double>(Clock::now() - t0).count();
+    st.SetIterationTime(s);
+    total += s;
+  }
+  set_counters(st, w, Pass::step, key.threads, total);
 }
 
-void sizes(benchmark::internal::Benchmark* b) { b->Arg(12)->Arg(26)->Arg(56)->UseRealTime(); }
-void step_sizes(benchmark::internal::Benchmark* b) {
-  for (int n : {12, 26, 56})
-    for (int t : {1, 2}) b->Args({n, t});
-  b->UseRealTime();
+void register_all() {
+  for (int threads : {1, 2}) {
+    for (double mib : {0.5, 1.0, 4.0, 24.0, 96.0, 512.0})
+      benchmark::RegisterBenchmark(("machine/triad/" + std::to_string(int(mib * 1024)) + "KiB/threads:" +
+                                    std::to_string(threads)).c_str(),
+                                   machine_triad, mib, threads)
+          ->Iterations(5)
+          ->Unit(benchmark::kMillisecond);
+    for (bool is_double : {false, true})
+      for (bool fma : {true, false})
+        benchmark::RegisterBenchmark((std::string("machine/") + (fma ? "peak_fma/" : "peak_mul_add/") +
+                                      (is_double ? "double" : "float") + "/threads:" + std::to_string(threads))
+                                         .c_str(),
+                                     machine_peak, is_double, fma, threads)
+            ->Iterations(3)
+            ->Unit(benchmark::kMillisecond);
+  }
+  for (const auto& sz : standard_sizes())
+    for (Precision p : {Precision::float32, Precision::float64}) {
+      for (ForceModel m : {ForceModel::linear, ForceModel::stvk, ForceModel::springs, ForceModel::corotational}) {
+        const WorldKey key{m, p, sz.label, Order::grid, 1};
+        std::vector<Pass> passes{Pass::element};
+        if (m == ForceModel::corotational)
+          passes = {Pass::element, Pass::gather, Pass::integrate, Pass::gather_integrate};
+        for (Pass pass : passes)
+          for (int threads : {1, 2})
+            benchmark::RegisterBenchmark((std::string(to_string(pass)) + "/" + to_string(m) + "/" + to_string(p) + "/" +
+                                          sz.label + "/threads:" + std::to_string(threads))
+                                             .c_str(),
+                                         pass_bench, key, sz.cells, pass, threads)
+                ->UseManualTime()
+                ->Unit(benchmark::kMicrosecond);
+      }
+      for (int threads : {1, 2})
+        benchmark::RegisterBenchmark((std::string("step/corotational/") + to_string(p) + "/" + sz.label +
+                                      "/threads:" + std::to_string(threads))
+                                         .c_str(),
+                                     step_bench, WorldKey{ForceModel::corotational, p, sz.label, Order::grid, threads},
+                                     sz.cells)
+            ->UseManualTime()
+            ->Unit(benchmark::kMicrosecond);
+    }
+  const BoxSize& big = standard_sizes().back();
+  for (ForceModel m : {ForceModel::linear, ForceModel::corotational})
+    for (Order order : {Order::grid, Order::random, Order::renumbered}) {
+      const WorldKey key{m, Precision::float32, big.label, order, 1};
+      for (Pass pass : {Pass::element, Pass::gather_integrate})
+        benchmark::RegisterBenchmark((std::string("order/") + to_string(pass) + "/" + to_string(m) + "/float/" +
+                                      big.label + "/" + to_string(order) + "/threads:1")
+                                         .c_str(),
+                                     pass_bench, key, big.cells, pass, 1)
+            ->UseManualTime()
+            ->Unit(benchmark::kMicrosecond);
+      if (m == ForceModel::corotational)
+        benchmark::RegisterBenchmark(
+            (std::string("order/step/corotational/float/") + big.label + "/" + to_string(order) + "/threads:1").c_str(),
+            step_bench, key, big.cells)
+            ->UseManualTime()
+            ->Unit(benchmark::kMicrosecond);
+    }
 }
-
-void element_pass_f32(benchmark::State& s, ForceModel m) { element_pass<float>(s, m); }
-void element_pass_f64(benchmark::State& s, ForceModel m) { element_pass<double>(s, m); }
-
-BENCHMARK_CAPTURE(element_pass_f32, linear, ForceModel::linear)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f64, linear, ForceModel::linear)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f32, stvk, ForceModel::stvk)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f64, stvk, ForceModel::stvk)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f32, corotational, ForceModel::corotational)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f64, corotational, ForceModel::corotational)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f32, springs, ForceModel::springs)->Apply(sizes);
-BENCHMARK_CAPTURE(element_pass_f64, springs, ForceModel::springs)->Apply(sizes);
-BENCHMARK_TEMPLATE(whole_step, float)->Apply(step_sizes);
-BENCHMARK_TEMPLATE(whole_step, double)->Apply(step_sizes);
 
 }  // namespace
 
-BENCHMARK_MAIN();
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  benchmark::AddCustomContext("machine", machine_description());
+  benchmark::AddCustomContext("build", build_description());
+  register_all();
+  benchmark::RunSpecifiedBenchmarks();
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,80 @@
+#!/usr/bin/env python3
+"""Medians over several `pliant bench --csv` runs (docs/performance.md).
+
+    python3 perf/summarize_results.py perf/results/<machine>/run*.csv > summary.md
+
+For every case (case, model, precision, order, size, threads) it prints the median over runs
+of ns/tet, the spread (min..max), the median roofline fraction and the working set, and for
+the summary records (speed-ups, float/double, orders) the median and range of the ratio. A
+shared machine is noisy from minute to minute: medians over runs taken at different times
+are steadier than any one run.
+"""
+import csv
+import statistics
+import sys
+from collections import defaultdict
+
+
+def num(s):
+    try:
+        return float(s)
+    except (TypeError, ValueError):
+        return None
+
+
+def main(paths):
+    rows = defaultdict(list)
+    order = []
+    for path in paths:
+        with open(path, newline="") as f:
+            for r in csv.DictReader(f):
+                key = (r["case"], r["kind"], r["model"], r["precision"], r["order"], r["size"], r["threads"])
+                if key not in rows:
+                    order.append(key)
+                rows[key].append(r)
+    print(f"Medians over {len(paths)} run(s).\n")
+    print("| case | model | precision | order | tets | threads | ns/tet (median) | min..max | B/tet | GB/s | roofline | bound | p99 us |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    for key in order:
+        case, kind, model, prec, order_, size, threads = key
+        if kind not in ("kernel", "step", "scene"):
+            continue
+        rs = rows[key]
+        ns = [num(r["ns_per_tet"]) for r in rs if num(r["ns_per_tet"])]
+        if not ns:
+            print(f"| {case} | {model} | {prec} | {order_} | | {threads} | {rs[0]['note']} | | | | | | |")
+            continue
+        fr = [num(r["roofline_fraction"]) for r in rs if num(r["roofline_fraction"])]
+        gb = [num(r["gb_per_s"]) for r in rs if num(r["gb_per_s"])]
+        p99 = [num(r["step_p99_us"]) for r in rs if num(r["step_p99_us"])]
+        print(f"| {case} | {model} | {prec} | {order_} | {rs[0]['tets']} | {threads} | {statistics.median(ns):.2f} "
+              f"| {min(ns):.2f}..{max(ns):.2f} | {num(rs[0]['bytes_per_tet']):.0f} | {statistics.median(gb):.1f} "
+              f"| {100 * statistics.median(fr):.0f}% | {rs[0]['bound']} | {statistics.median(p99):.0f} |")
+    print("\n| summary | precision | size | threads | median | min..max | unit |")
+    print("|---|---|---|---|---|---|---|")
+    for key in order:
+        case, kind, model, prec, order_, size, threads = key
+        if kind != "summary":
+            continue
+        v = [num(r["value"]) for r in rows[key] if num(r["value"])]
+        if v:
+            print(f"| {case[8:]} | {prec} | {size} | {threads} | {statistics.median(v):.2f} | {min(v):.2f}..{max(v):.2f} "
+                  f"| {rows[key][0]['unit']} |")
+    print("\n| machine | precision | threads | MiB | median | min..max |")
+    print("|---|---|---|---|---|---|")
+    for key in order:
+        case, kind, model, prec, order_, size, threads = key
+        if kind != "machine" or case == "machine/info":
+            continue
+        by_size = defaultdict(list)
+        for r in rows[key]:
+            by_size[r["footprint_mib"]].append(num(r["value"]))
+        for mib, v in by_size.items():
+            v = [x for x in v if x]
+            print(f"| {case[8:]} | {prec} | {threads} | {mib} | {statistics.median(v):.1f} | {min(v):.1f}..{max(v):.1f} |")
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2:
+        sys.exit(__doc__)
+    main(sys.argv[1:])
