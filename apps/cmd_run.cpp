@@ -1,10 +1,15 @@
-// `pliant run SCENE`: runs a scene file to its end and writes its results.
+// `pliant run SCENE`: runs a scene file to its end and writes its results; with --png-every,
+// --sheet or --mp4 (or "output": {"sheet": true} in the scene) also pictures of the run, taken
+// by raster::FrameRecorder through the runner's read-only frame callback.
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <fmt/format.h>
+#include <optional>
 
 #include "commands.hpp"
+#include "pliant/raster/recorder.hpp"
 #include "pliant/run.hpp"
 #include "pliant/scene.hpp"
 
@@ -12,8 +17,20 @@ namespace pliant::cli {
 namespace {
 namespace fs = std::filesystem;
 
+struct PictureOptions {
+  std::optional<double> png_every;
+  bool sheet = false, mp4 = false;
+  std::string field = "displacement", size = "1280x720", camera = "scene";
+};
+
+void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool quiet) {
+  if (quiet) return;
+  for (const auto& f : r.files) fmt::print("picture: {}\n", (out / f).string());
+  for (const auto& n : r.notes) fmt::print(stderr, "pliant: note: {}\n", n);
+}
+
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
-                const std::string& precision, std::optional<double> duration, bool quiet) {
+                const std::string& precision, std::optional<double> duration, bool quiet, const PictureOptions& pic) {
   SceneDef scene = load_scene_file(scene_path);
   RunOptions opt;
   opt.out_dir = out;
@@ -23,8 +40,41 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   else if (!precision.empty()) throw InputError(fmt::format("--precision must be float or double, got '{}'", precision));
   opt.duration = duration;
   opt.progress = !quiet && isatty(STDERR_FILENO);
+
+  // Pictures: options are checked before the run starts.
+  raster::RecorderOptions ro;
+  ro.out_dir = out;
+  if (pic.png_every) {
+    if (!(*pic.png_every > 0)) throw InputError(fmt::format("--png-every must be > 0 (s), got {}", *pic.png_every));
+    ro.png_every = *pic.png_every;
+  }
+  ro.sheet = pic.sheet || scene.output.sheet;
+  ro.mp4 = pic.mp4;
+  ro.field = raster::parse_field(pic.field, "--field");
+  const auto size = raster::parse_size(pic.size, "--size");
+  ro.width = size[0];
+  ro.height = size[1];
+  ro.camera = raster::parse_camera_preset(pic.camera, "--camera");
+  std::optional<raster::FrameRecorder> recorder;
+  if (ro.png_every > 0 || ro.sheet || ro.mp4) {
+    recorder.emplace(scene, ro, duration.value_or(scene.duration));
+    if (recorder->active()) {
+      opt.frame_every = recorder->frame_every();
+      opt.on_frame = [&recorder](const World& w) { recorder->capture(w); };
+    }
+  }
+
   if (!quiet) fmt::print(stderr, "pliant: running {} ...\n", scene_path);
-  const RunSummary s = run_scene(scene, opt);
+  RunSummary s;
+  try {
+    s = run_scene(scene, opt);
+  } catch (const DivergenceError&) {
+    if (recorder && recorder->active()) {  // pictures up to the divergence help to see why
+      if (!quiet) fmt::print(stderr, "pliant: rendering the pictures taken before the divergence ...\n");
+      report_pictures(recorder->finish(), out, quiet);
+    }
+    throw;
+  }
   if (!quiet) {
     fmt::print("{} nodes, {} tets ({}, {}), {} threads\n", s.nodes, s.tets, s.model, s.precision, s.threads);
     fmt::print("{} steps of {:.4g} s (stable bound {:.4g} s) to t = {:.4g} s in {:.2f} s wall: {:.0f} steps/s\n",
@@ -35,6 +85,11 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
                s.files.size() > 1 && std::find(s.files.begin(), s.files.end(), "probes.csv") != s.files.end()
                    ? ", probes.csv" : "",
                scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
+  }
+  if (recorder && recorder->active()) {
+    std::fflush(stdout);
+    if (!quiet) fmt::print(stderr, "pliant: rendering pictures ...\n");
+    report_pictures(recorder->finish(), out, quiet);
   }
   return 0;
 }
@@ -47,6 +102,7 @@ Command add_run_command(CLI::App& app) {
     std::optional<int> threads;
     std::optional<double> duration;
     bool quiet = false;
+    PictureOptions pic;
   };
   auto o = std::make_shared<Options>();
   auto* run = app.add_subcommand("run", "Run a scene file and write its results");
@@ -56,7 +112,16 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--precision", o->precision, "float or double (overrides the scene)");
   run->add_option("--duration", o->duration, "Simulated seconds (overrides the scene)");
   run->add_flag("--quiet,-q", o->quiet, "No progress line and no report");
-  return {run, [o] { return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet); }};
+  run->add_option("--png-every", o->pic.png_every, "Write a picture every S simulated seconds: OUT/frames/frame_NNNNN.png");
+  run->add_flag("--sheet", o->pic.sheet, "Write OUT/sheet.png, a contact sheet of the run (pictures with their times)");
+  run->add_flag("--mp4", o->pic.mp4, "Assemble OUT/movie.mp4 from the frames (needs ffmpeg; frames every duration/60 unless --png-every)");
+  run->add_option("--field", o->pic.field, "Colour of the pictures: displacement, von_mises or none")->capture_default_str();
+  run->add_option("--size", o->pic.size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
+  run->add_option("--camera", o->pic.camera, "scene (the scene's camera block, else auto), auto, front, side or top")
+      ->capture_default_str();
+  return {run, [o] {
+            return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->pic);
+          }};
 }
 
 }  // namespace pliant::cli

@@ -12,8 +12,13 @@ struct Command {
   std::function<int()> action;
 };
 
-Command add_run_command(CLI::App& app);
-Command add_info_command(CLI::App& app);
-Command add_mesh_command(CLI::App& app);
+Command add_run_command(CLI::App& app);        // cmd_run.cpp
+Command add_info_command(CLI::App& app);       // cmd_info.cpp
+Command add_mesh_command(CLI::App& app);       // cmd_mesh.cpp
+Command add_bench_command(CLI::App& app);      // cmd_bench.cpp
+Command add_study_command(CLI::App& app);      // cmd_study.cpp
+Command add_stability_command(CLI::App& app);  // cmd_stability.cpp
+Command add_stress_command(CLI::App& app);     // cmd_stress.cpp
+Command add_render_command(CLI::App& app);     // cmd_render.cpp
 
 }  // namespace pliant::cli

@@ -17,6 +17,11 @@ int main(int argc, char** argv) {
       cli::add_run_command(app),
       cli::add_info_command(app),
       cli::add_mesh_command(app),
+      cli::add_bench_command(app),
+      cli::add_study_command(app),
+      cli::add_stability_command(app),
+      cli::add_stress_command(app),
+      cli::add_render_command(app),
   };
   try {
     app.parse(argc, argv);

@@ -109,6 +109,15 @@ struct ProbeDef {
 struct OutputDef {
   double vtu_every = 0;   // s between VTU frames; 0 = no VTU output
   double probe_every = 0; // s between probe rows; 0 = every step
+  bool sheet = false;     // `pliant run` also writes a contact sheet (sheet.png), as with --sheet
+};
+
+// Where pictures are taken from (`pliant run --png-every/--sheet`, `pliant render`).
+struct CameraDef {
+  Vec3d position{};     // m, the eye
+  Vec3d target{};       // m, the point at the centre of the picture
+  Vec3d up{0, 0, 1};    // the direction shown upwards (not along target - position)
+  double fov_deg = 40;  // vertical field of view (degrees), in (0, 180)
 };
 
 // A whole scene: what `pliant run` executes.
@@ -118,6 +127,7 @@ struct SceneDef {
   std::vector<BodyDef> bodies;
   std::vector<ProbeDef> probes;
   OutputDef output;
+  std::optional<CameraDef> camera;  // none: pictures frame the bodies automatically
   std::filesystem::path source;  // the scene file, for messages ("" when built in code)
 };
 

@@ -18,6 +18,7 @@ KeyList object_keys_at(std::string_view pattern) {
       {"", kSceneKeys},
       {"time_step", kTimeStepKeys},
       {"output", kOutputKeys},
+      {"camera", kCameraKeys},
       {"probes[]", kProbeKeys},
       {"bodies[]", kBodyKeys},
       {"bodies[].mesh", kMeshKeys},

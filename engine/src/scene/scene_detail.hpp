@@ -15,7 +15,8 @@ using Json = nlohmann::ordered_json;  // keeps the file's key order (messages, r
 using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
-                                                  "time_step", "bodies", "probes",    "output"};
+                                                  "time_step", "bodies", "probes",    "output",
+                                                  "camera"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads"};
@@ -32,7 +33,8 @@ inline constexpr std::string_view kPrescribedKeys[] = {"region", "keyframes"};
 inline constexpr std::string_view kKeyframeKeys[] = {"time", "offset"};
 inline constexpr std::string_view kLoadKeys[] = {"region", "force"};
 inline constexpr std::string_view kProbeKeys[] = {"name", "body", "point"};
-inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every"};
+inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every", "sheet"};
+inline constexpr std::string_view kCameraKeys[] = {"position", "target", "up", "fov_deg"};
 
 // Keys starting with "_" or "//" are comments, ignored everywhere.
 inline bool is_comment_key(std::string_view k) {

@@ -209,6 +209,7 @@ class Reader {
   PrescribedMotionDef prescribed(const Json& j, const std::string& path) const;
   NodalLoadDef load(const Json& j, const std::string& path) const;
   ProbeDef probe(const Json& j, const std::string& path, std::size_t index) const;
+  CameraDef camera(const Json& j, const std::string& path) const;
 
   std::string source_;
   fs::path base_dir_;
@@ -263,8 +264,32 @@ SceneDef Reader::scene(const Json& doc) const {
     object(v, p, kOutputKeys);
     optional(v, p, "vtu_every", [&](const auto& x, const auto& q) { s.output.vtu_every = non_negative(x, q); });
     optional(v, p, "probe_every", [&](const auto& x, const auto& q) { s.output.probe_every = non_negative(x, q); });
+    optional(v, p, "sheet", [&](const auto& x, const auto& q) { s.output.sheet = boolean(x, q); });
   });
+  optional(doc, "", "camera", [&](const auto& v, const auto& p) { s.camera = camera(v, p); });
   return s;
+}
+
+CameraDef Reader::camera(const Json& j, const std::string& path) const {
+  object(j, path, kCameraKeys);
+  CameraDef c;
+  c.position = vec3(required(j, path, "position"), field(path, "position"));
+  c.target = vec3(required(j, path, "target"), field(path, "target"));
+  optional(j, path, "up", [&](const auto& v, const auto& p) { c.up = vec3(v, p); });
+  optional(j, path, "fov_deg", [&](const auto& v, const auto& p) {
+    c.fov_deg = number(v, p);
+    if (!(c.fov_deg > 0 && c.fov_deg < 180)) fail(p, fmt::format("must be in (0, 180) (degrees), got {}", c.fov_deg));
+  });
+  const Vec3d d{c.target[0] - c.position[0], c.target[1] - c.position[1], c.target[2] - c.position[2]};
+  const double dd = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  if (!(dd > 0)) fail(field(path, "target"), "must differ from position (the camera looks from position to target)");
+  const Vec3d& u = c.up;
+  const double uu = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+  if (!(uu > 0)) fail(field(path, "up"), "must not be [0, 0, 0]");
+  const Vec3d x{d[1] * u[2] - d[2] * u[1], d[2] * u[0] - d[0] * u[2], d[0] * u[1] - d[1] * u[0]};
+  if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dd * uu))
+    fail(field(path, "up"), "is along the view direction (target - position); give a direction across it");
+  return c;
 }
 
 TimeStepDef Reader::time_step(const Json& j, const std::string& path) const {

@@ -1,0 +1,86 @@
+// `pliant render SCENE|MESH -o OUT.png`: one picture. A scene file is shown in its rest state
+// (the world is built, never stepped), with its fixed and driven regions and probes marked; a
+// volume mesh file (e.g. a .vtu frame of a run, whose points are already displaced) is shown as
+// stored, coloured by displacement when its rest state is given with --rest.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <optional>
+
+#include "commands.hpp"
+#include "pliant/error.hpp"
+#include "pliant/mesh_io.hpp"
+#include "pliant/raster/image.hpp"
+#include "pliant/raster/render.hpp"
+#include "pliant/run.hpp"
+#include "pliant/scene.hpp"
+
+namespace pliant::cli {
+namespace {
+namespace fs = std::filesystem;
+
+struct RenderArgs {
+  std::string input, output, field, size = "1280x720", camera = "scene", rest;
+  bool quiet = false;
+};
+
+int command_render(const RenderArgs& a) {
+  std::string ext = fs::path(a.input).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  const auto size = raster::parse_size(a.size, "--size");
+  raster::RenderOptions ro;
+  ro.width = size[0];
+  ro.height = size[1];
+  ro.preset = raster::parse_camera_preset(a.camera, "--camera");
+  ro.title = fs::path(a.input).filename().string();
+  std::optional<raster::Field> field;
+  if (!a.field.empty()) field = raster::parse_field(a.field, "--field");
+  const fs::path out = a.output.empty() ? fs::path(a.input).stem().concat(".png") : fs::path(a.output);
+
+  raster::Frame frame;
+  if (ext == ".json") {
+    if (!a.rest.empty()) throw InputError("--rest is for mesh files; a scene is rendered in its rest state");
+    const SceneDef scene = load_scene_file(a.input);
+    if (scene.camera) ro.camera = scene.camera;
+    const Vec3d g = scene.world.gravity;
+    const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
+    if (gn > 0) ro.up = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+    RunOptions run;
+    run.threads = 1;  // building the world only: no stepping
+    const World world = make_world(scene, run);
+    frame = raster::capture(world, field.value_or(raster::Field::none));
+  } else {
+    const TetMesh mesh = read_tet_mesh(a.input);
+    std::optional<TetMesh> rest;
+    if (!a.rest.empty()) rest = read_tet_mesh(a.rest);
+    frame = raster::frame_from_mesh(mesh, fs::path(a.input).filename().string(),
+                                    field.value_or(rest ? raster::Field::displacement : raster::Field::none),
+                                    rest ? &*rest : nullptr);
+  }
+  raster::Renderer renderer;
+  const raster::Image image = renderer.render(frame, ro);
+  raster::write_png(image, out);
+  if (!a.quiet) fmt::print("wrote {} ({}x{}, {})\n", out.string(), image.width(), image.height(), to_string(frame.field));
+  return 0;
+}
+
+}  // namespace
+
+Command add_render_command(CLI::App& app) {
+  auto a = std::make_shared<RenderArgs>();
+  auto* sub = app.add_subcommand("render", "Render a scene (rest state) or a volume mesh file (e.g. a .vtu result) to PNG");
+  sub->add_option("INPUT", a->input, "Scene file (.json) or volume mesh (.vtu, .vtk, .msh, .node/.ele)")->required();
+  sub->add_option("--output,-o", a->output, "PNG file to write (default: INPUT's name with .png, here)");
+  sub->add_option("--field", a->field,
+                  "displacement, von_mises or none (default: none; displacement for a mesh with --rest)");
+  sub->add_option("--size", a->size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
+  sub->add_option("--camera", a->camera, "scene (the scene's camera block, else auto), auto, front, side or top")
+      ->capture_default_str();
+  sub->add_option("--rest", a->rest, "For a mesh: its rest state (same nodes), to colour by displacement");
+  sub->add_flag("--quiet,-q", a->quiet, "Print nothing");
+  return {sub, [a] { return command_render(*a); }};
+}
+
+}  // namespace pliant::cli

@@ -1,0 +1,63 @@
+// Plots as PNG, drawn in software (no GL, no font library; only libpng): line and scatter
+// series, linear or log axes with round ticks, axis labels with units, a title and a legend.
+// For `pliant study` (Pareto fronts, convergence curves) and anything else that needs a chart.
+//
+//   raster::Plot p;
+//   p.title = "Convergence";
+//   p.x = {"cell size", "m", /*log=*/true};
+//   p.y = {"tip error", "m", /*log=*/true};
+//   p.series.push_back({"corotational", xs, ys, raster::SeriesStyle::line_and_markers});
+//   raster::write_plot_png(p, "out/convergence.png");
+#pragma once
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "pliant/raster/image.hpp"
+
+namespace pliant::raster {
+
+enum class SeriesStyle { line, scatter, line_and_markers };
+
+struct PlotSeries {
+  PlotSeries() = default;
+  PlotSeries(std::string label_, std::vector<double> x_, std::vector<double> y_, SeriesStyle style_ = SeriesStyle::line)
+      : label(std::move(label_)), x(std::move(x_)), y(std::move(y_)), style(style_) {}
+
+  std::string label;                  // in the legend; empty = not listed
+  std::vector<double> x, y;           // same length (else InputError)
+  SeriesStyle style = SeriesStyle::line;
+  std::optional<Rgba> colour;         // default: the palette colour of the series' index
+  double line_width = 2.0;            // pixels at 800x600 (scaled with the picture)
+  double marker_size = 4.0;           // radius in pixels at 800x600
+};
+
+struct PlotAxis {
+  PlotAxis() = default;
+  PlotAxis(std::string label_, std::string unit_, bool log_ = false)
+      : label(std::move(label_)), unit(std::move(unit_)), log(log_) {}
+
+  std::string label;                  // e.g. "cell size"
+  std::string unit;                   // e.g. "m"; shown as "cell size [m]"
+  bool log = false;                   // base-10 log scale; non-positive values are left out
+  std::optional<double> min, max;     // default: the data's range (padded, rounded)
+};
+
+struct Plot {
+  std::string title;
+  PlotAxis x, y;
+  std::vector<PlotSeries> series;
+  bool legend = true;
+  bool grid = true;
+  int width = 800, height = 600;      // pixels
+};
+
+// Non-finite points are left out, as are non-positive ones on a log axis. A plot with no point
+// left gets axes [0, 1] (or [1, 10] when log). Throws InputError on mismatched x/y lengths or
+// a size outside [64, 16384].
+Image render_plot(const Plot& plot);
+void write_plot_png(const Plot& plot, const std::filesystem::path& path);
+
+}  // namespace pliant::raster

@@ -1,0 +1,156 @@
+// Headless pictures of soft bodies: the boundary surface of every body, smooth-shaded (normals
+// averaged over the boundary triangles, split at creases), coloured by a field with a colour
+// bar in its units, fixed and driven nodes marked, probes drawn, a ground grid under the lowest
+// point, the simulated time printed. OpenGL runs in software through OSMesa (llvmpipe); no
+// display, no GPU. OSMesa is used in this module only (renderer.cpp).
+//
+// Two steps: capture() copies what a picture needs out of a World (read-only, cheap, O(nodes)),
+// Renderer::render() draws a captured Frame. Keeping them apart lets `pliant run` capture during
+// the run and render afterwards with a camera and colour range common to every frame.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "pliant/defs.hpp"
+#include "pliant/raster/image.hpp"
+#include "pliant/tet_mesh.hpp"
+
+namespace pliant {
+class World;
+}
+
+namespace pliant::raster {
+
+// What colours the surface.
+enum class Field { none, displacement, von_mises };
+// "displacement" | "von_mises" | "none"; anything else throws InputError naming `what`
+// (e.g. "--field") and listing the choices.
+Field parse_field(std::string_view name, std::string_view what = "field");
+const char* to_string(Field f);
+const char* field_unit(Field f);   // "m", "Pa" or ""
+const char* field_title(Field f);  // "displacement", "von Mises stress", ""
+
+// The surface of one body at one instant. Topology is shared between the frames of a run.
+struct SurfaceTopology {
+  std::string name;
+  std::vector<std::array<std::int32_t, 3>> triangles;  // outward, indices into the surface nodes
+  std::vector<std::int32_t> fixed;       // surface nodes held at rest (drawn dark)
+  std::vector<std::int32_t> driven;      // surface nodes moved by prescribed motion (drawn orange)
+  std::vector<std::int32_t> source_node; // surface node -> node of the body's level
+};
+struct SurfaceBody {
+  std::shared_ptr<const SurfaceTopology> topology;
+  std::vector<float> points;  // x y z per surface node (m)
+  std::vector<float> values;  // per surface node, in the field's SI unit; empty for Field::none
+};
+struct ProbeMark {
+  std::string name;
+  Vec3d position{};  // m
+};
+struct Frame {
+  double time = 0;           // s
+  bool has_time = true;      // false: a state of unknown time (a mesh file)
+  Field field = Field::none;
+  std::vector<SurfaceBody> bodies;
+  std::vector<ProbeMark> probes;
+  std::size_t bytes() const;  // memory held by the frame's own arrays
+};
+
+// Copies the surfaces (finest level of each body), field values, probes and time out of a
+// world. Never writes to it. `cache` keeps the topology between calls for the same world.
+struct CaptureCache {
+  std::vector<std::shared_ptr<const SurfaceTopology>> bodies;
+};
+Frame capture(const World& world, Field field, CaptureCache* cache = nullptr);
+
+// A frame of one tet mesh (e.g. a .vtu result): its boundary surface. With `rest` (same node
+// count, else InputError) the displacement field is points - rest points; von_mises is not
+// available from a mesh alone (InputError).
+Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field,
+                      const TetMesh* rest = nullptr);
+
+// "WIDTHxHEIGHT" (e.g. "1280x720"), each in [16, 16384]; else InputError naming `what`.
+std::array<int, 2> parse_size(std::string_view text, std::string_view what = "size");
+
+// Up to about `max_points` surface points of a frame (every k-th node, and the probes), for
+// RenderOptions::framing_points.
+std::vector<Vec3d> framing_sample(const Frame& frame, std::size_t max_points = 4096);
+
+// Axis-aligned bounds of everything a frame shows (m).
+struct Bounds {
+  Vec3d min{1e300, 1e300, 1e300}, max{-1e300, -1e300, -1e300};
+  bool empty() const { return min[0] > max[0]; }
+  void add(const Vec3d& p);
+  void add(const Bounds& b);
+};
+Bounds bounds_of(const Frame& frame);
+
+// Camera choices: "scene" (the scene's camera block, or auto without one), "auto" (fits the
+// bounds, 3/4 view from above), "front", "side", "top". Anything else throws InputError naming
+// `what` and listing the choices.
+enum class CameraPreset { scene, automatic, front, side, top };
+CameraPreset parse_camera_preset(std::string_view name, std::string_view what = "camera");
+
+// Checks a camera block (finite numbers, position != target, up not along the view, fov in
+// (0, 180)); throws InputError "<what>.<field>: ..." naming the bad field.
+void validate_camera(const CameraDef& camera, std::string_view what = "camera");
+
+struct RenderOptions {
+  int width = 1280, height = 720;                 // pixels, each in [16, 16384]
+  CameraPreset preset = CameraPreset::scene;
+  std::optional<CameraDef> camera;                // the scene's camera block (used by preset scene)
+  Vec3d up{0, 0, 1};                              // world up (from gravity): auto views and grid
+  std::optional<Bounds> framing;                  // what the grid spans (and the auto camera fits); default: the frame's bounds
+  std::vector<Vec3d> framing_points;              // what the auto camera fits, if given (e.g. a sample of a whole run)
+  std::optional<std::array<double, 2>> range;     // colour range in SI units; default [0, nice max of the frame]
+  std::string title;                              // top-left, after the time
+  int caption_height = 0;                         // pixels at the top kept free of bodies (for a caption drawn later)
+  bool colour_bar = true, time_label = true, grid = true, marks = true, probe_labels = true, legend = true;
+  int samples = 4;                                // multisample anti-aliasing (1 = off)
+  int text_scale = 0;                             // 0: from the height (1 per 360 px)
+};
+
+// The range a frame's field would get by default: [0, nice ceiling of its largest value]
+// ([0, 1 mm] or [0, 1 kPa] when everything is zero).
+std::array<double, 2> default_range(const Frame& frame);
+// Largest field value of a frame (0 if none).
+double max_value(const Frame& frame);
+
+// The colour bar drawn by the renderer, for composing (contact sheets): a vertical (or
+// horizontal) gradient with ticks and "title [unit]" in a box of the given size.
+void draw_colour_bar(Image& image, int x, int y, int w, int h, Field field, std::array<double, 2> range,
+                     int text_scale, bool horizontal = false);
+
+// Owns an OSMesa context and its buffers; reuse one for many frames. Not thread-safe: use it
+// from one thread. Throws std::runtime_error if OSMesa cannot make a context.
+class Renderer {
+ public:
+  Renderer();
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  Image render(const Frame& frame, const RenderOptions& options);
+  // Also returns the body's silhouette: one byte per pixel (top row first), 1 where a body
+  // surface is the nearest thing, else 0 (for tests and compositing).
+  Image render(const Frame& frame, const RenderOptions& options, std::vector<std::uint8_t>* body_mask);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// The view Renderer::render uses for a frame (for tests and tools): eye, target, up and vertical
+// field of view.
+struct View {
+  Vec3d position{}, target{}, up{0, 0, 1};
+  double fov_deg = 30;
+};
+View resolve_view(const Frame& frame, const RenderOptions& options);
+
+}  // namespace pliant::raster

@@ -1,0 +1,137 @@
+// CPU overlays on a rendered picture: the time, a title, the colour bar in display units
+// (mm, kPa, ...), probe markers (a ring and a cross, drawn through the body so that buried
+// probes stay visible) with their names, and a legend of the marks.
+#include "overlay.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "pliant/raster/colormap.hpp"
+#include "pliant/raster/text.hpp"
+
+namespace pliant::raster {
+
+namespace {
+const Rgba kInk{24, 26, 32, 255};
+const Rgba kProbe{214, 39, 40, 255};
+const Rgba kFixed{26, 26, 31, 255};
+const Rgba kDriven{255, 128, 0, 255};
+}  // namespace
+
+void draw_colour_bar(Image& img, int x, int y, int w, int h, Field field, std::array<double, 2> range, int s,
+                     bool horizontal) {
+  s = std::max(s, 1);
+  const double lo = range[0], hi = range[1] > range[0] ? range[1] : range[0] + 1;
+  const DisplayUnit unit = display_unit(field_unit(field), std::max(std::abs(lo), std::abs(hi)));
+  const std::string title = unit.name.empty() ? std::string(field_title(field))
+                                              : fmt::format("{} [{}]", field_title(field), unit.name);
+  TextStyle ts{kInk, s, true};
+  std::vector<double> ticks = nice_ticks(lo * unit.factor, hi * unit.factor, horizontal ? 6 : 6);
+  if (!horizontal) {
+    // Title right-aligned on the box's right edge (it may reach left of the box), bar below.
+    draw_text(img, x + w - text_width(title, s), y, title, ts);
+    const int bx = x + 4 * s, bw = 10 * s, by = y + 14 * s, bh = std::max(h - 14 * s - 6 * s, 10);
+    for (int j = 0; j < bh; ++j) {
+      const Rgba c = viridis(1.0 - (j + 0.5) / bh);
+      img.fill_rect(bx, by + j, bw, 1, c);
+    }
+    img.frame_rect(bx - 1, by - 1, bw + 2, bh + 2, kInk, 1);
+    for (double t : ticks) {
+      const double f = (t / unit.factor - lo) / (hi - lo);
+      const int ty = by + int(std::lround((1 - f) * (bh - 1)));
+      img.fill_rect(bx + bw, ty, 3 * s, std::max(1, s / 2), kInk);
+      const std::string label = format_number(t, 3);
+      draw_text(img, bx + bw + 5 * s, ty - text_height(s) / 2, label, ts);
+    }
+  } else {
+    draw_text(img, x, y, title, ts);
+    const int bx = x + 2 * s, bw = std::max(w - 4 * s, 10), by = y + 12 * s, bh = 8 * s;
+    for (int i = 0; i < bw; ++i) img.fill_rect(bx + i, by, 1, bh, viridis((i + 0.5) / bw));
+    img.frame_rect(bx - 1, by - 1, bw + 2, bh + 2, kInk, 1);
+    for (double t : ticks) {
+      const double f = (t / unit.factor - lo) / (hi - lo);
+      const int tx = bx + int(std::lround(f * (bw - 1)));
+      img.fill_rect(tx, by + bh, std::max(1, s / 2), 3 * s, kInk);
+      const std::string label = format_number(t, 3);
+      draw_text(img, std::clamp(tx - text_width(label, s) / 2, 0, img.width() - text_width(label, s)),
+                by + bh + 4 * s, label, ts);
+    }
+  }
+}
+
+namespace detail {
+
+std::string time_label(double t, double step) {
+  int decimals = 3;
+  if (step > 0) {  // enough to tell frames apart: 0.05 -> 2 decimals, 0.136 -> 2, 0.005 -> 3
+    decimals = int(std::ceil(-std::log10(step) - 1e-9));
+    const double scaled = step * std::pow(10.0, decimals);
+    if (std::abs(scaled - std::round(scaled)) > 1e-6 * scaled) ++decimals;
+    decimals = std::clamp(decimals, 0, 6);
+  }
+  if (std::abs(t) >= 100) decimals = std::min(decimals, 1);
+  return fmt::format("t = {:.{}f} s", t, decimals);
+}
+
+void draw_overlays(Image& img, const Frame& frame, const RenderOptions& o, const Layout& L, const Camera& cam,
+                   const std::array<double, 2>& range) {
+  const int s = L.text_scale;
+  TextStyle ts{kInk, s, true};
+  // Probes: through the body, so that buried ones show.
+  if (o.marks) {
+    for (const ProbeMark& p : frame.probes) {
+      double px = 0, py = 0;
+      if (!cam.project(V3(p.position), px, py)) continue;
+      const double r = 4.0 * s;
+      img.ring(px, py, r + s * 0.6, {255, 255, 255, 200}, 1.2 * s);
+      img.ring(px, py, r, kProbe, 1.2 * s);
+      img.line(px - 1.8 * r, py, px - 0.5 * r, py, kProbe, s);
+      img.line(px + 0.5 * r, py, px + 1.8 * r, py, kProbe, s);
+      img.line(px, py - 1.8 * r, px, py - 0.5 * r, kProbe, s);
+      img.line(px, py + 0.5 * r, px, py + 1.8 * r, kProbe, s);
+      if (o.probe_labels) draw_text(img, int(px + 2.2 * r), int(py - 2.4 * r), p.name, {kProbe, s, true});
+    }
+  }
+  if (o.time_label || !o.title.empty()) {
+    std::string line = o.time_label && frame.has_time ? time_label(frame.time) : "";
+    if (!o.title.empty()) line += (line.empty() ? "" : "   ") + o.title;
+    draw_text(img, 6 * s, 3 * s, line, ts);
+  }
+  if (L.colour_bar) draw_colour_bar(img, L.bar_x, L.bar_y, L.bar_w, L.bar_h, frame.field, range, s);
+  if (L.legend) {
+    bool fixed = false, driven = false;
+    for (const auto& b : frame.bodies) {
+      fixed = fixed || !b.topology->fixed.empty();
+      driven = driven || !b.topology->driven.empty();
+    }
+    draw_legend(img, 6 * s, L.height - 12 * s, s, fixed, driven, !frame.probes.empty());
+  }
+}
+
+void draw_legend(Image& img, int x, int y, int s, bool fixed, bool driven, bool probes) {
+  TextStyle ts{kInk, s, true};
+  const double cy = y + 4.5 * s;
+  auto item = [&](const char* text) {
+    draw_text(img, x, y, text, ts);
+    x += text_width(text, s) + 14 * s;
+  };
+  if (fixed) {
+    img.disc(x + 2.5 * s, cy, 2.2 * s, kFixed);
+    x += 8 * s;
+    item("fixed");
+  }
+  if (driven) {
+    img.disc(x + 2.5 * s, cy, 2.2 * s, kDriven);
+    x += 8 * s;
+    item("prescribed motion");
+  }
+  if (probes) {
+    img.ring(x + 3 * s, cy, 2.6 * s, kProbe, s);
+    x += 9 * s;
+    item("probe");
+  }
+}
+
+}  // namespace detail
+}  // namespace pliant::raster

@@ -1,0 +1,151 @@
+// The CPU side of raster/: PNG round trips, the bitmap font, round numbers and display units,
+// the colour map, and plots (non-blank, labelled, errors on bad series).
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+
+#include "pliant/error.hpp"
+#include "pliant/raster/colormap.hpp"
+#include "pliant/raster/image.hpp"
+#include "pliant/raster/plot.hpp"
+#include "pliant/raster/text.hpp"
+
+namespace {
+// Removes this process's scratch folder when the tests end.
+struct ScratchCleanup : ::testing::Environment {
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(std::filesystem::temp_directory_path() / ("pliant_test_image_" + std::to_string(::getpid())), ec);
+  }
+};
+const auto* const kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
+using namespace pliant;
+using namespace pliant::raster;
+namespace fs = std::filesystem;
+
+fs::path scratch() {
+  const fs::path p = fs::temp_directory_path() / ("pliant_test_image_" + std::to_string(::getpid()));
+  fs::create_directories(p);
+  return p;
+}
+
+std::size_t ink(const Image& img, int x0, int y0, int x1, int y1, Rgba background) {
+  std::size_t n = 0;
+  for (int y = std::max(y0, 0); y < std::min(y1, img.height()); ++y)
+    for (int x = std::max(x0, 0); x < std::min(x1, img.width()); ++x) n += !(img.get(x, y) == background);
+  return n;
+}
+
+TEST(Png, RoundTripOpaqueAndTranslucent) {
+  Image a(37, 21, {10, 20, 30, 255});
+  a.set(3, 4, {200, 100, 50, 255});
+  write_png(a, scratch() / "a.png");
+  EXPECT_EQ(read_png(scratch() / "a.png").bytes(), a.bytes());
+  Image b(5, 7, {1, 2, 3, 128});
+  write_png(b, scratch() / "b.png");
+  EXPECT_EQ(read_png(scratch() / "b.png").bytes(), b.bytes());
+  EXPECT_THROW(write_png(a, scratch() / "no" / "such" / "dir.png"), InputError);
+  EXPECT_THROW(read_png(scratch() / "absent.png"), InputError);
+}
+
+TEST(Text, DrawsWhereMeasured) {
+  Image img(200, 40);
+  const std::string s = "t = 0.25 s [kPa] \u00B5m\u00B2";
+  const int w = text_width(s, 2), h = text_height(2);
+  EXPECT_EQ(w, (int(std::string("t = 0.25 s [kPa] xxx").size()) * 6 - 1) * 2);
+  EXPECT_EQ(h, 20);
+  draw_text(img, 5, 5, s, {{0, 0, 0, 255}, 2, false});
+  const Rgba white{255, 255, 255, 255};
+  EXPECT_GT(ink(img, 5, 5, 5 + w, 5 + h, white), 100u);
+  EXPECT_EQ(ink(img, 5 + w, 0, 200, 40, white), 0u);
+  EXPECT_EQ(ink(img, 0, 5 + h, 200, 40, white), 0u);
+  Image v(40, 200);
+  draw_text_vertical(v, 5, 5, "abc", {{0, 0, 0, 255}, 2, false});
+  EXPECT_GT(ink(v, 5, 5, 5 + text_height(2), 5 + text_width("abc", 2), white), 20u);
+  EXPECT_EQ(ink(v, 5 + text_height(2), 0, 40, 200, white), 0u);
+}
+
+TEST(Numbers, NiceTicksAndUnits) {
+  EXPECT_DOUBLE_EQ(nice_number(0.0137, true), 0.015);
+  EXPECT_DOUBLE_EQ(nice_number(7.2, true), 8);
+  EXPECT_DOUBLE_EQ(nice_number(7.2, false), 5);
+  EXPECT_THAT(nice_ticks(0, 1, 6), ::testing::ElementsAre(0, 0.2, 0.4, 0.6000000000000001, 0.8, 1));
+  EXPECT_EQ(display_unit("m", 0.015).name, "mm");
+  EXPECT_DOUBLE_EQ(display_unit("m", 0.015).factor, 1000);
+  EXPECT_EQ(display_unit("m", 2e-6).name, "\u00B5m");
+  EXPECT_EQ(display_unit("m", 3.0).name, "m");
+  EXPECT_EQ(display_unit("m", 3000.0).name, "m");  // no km
+  EXPECT_EQ(display_unit("Pa", 2.5e4).name, "kPa");
+  EXPECT_EQ(display_unit("Pa", 2.5e7).name, "MPa");
+  EXPECT_EQ(format_number(0.25), "0.25");
+  EXPECT_EQ(format_number(1200), "1200");
+  EXPECT_EQ(format_number(0), "0");
+}
+
+TEST(Colormap, ViridisEndsAndMonotoneLightness) {
+  EXPECT_EQ(viridis(0), (Rgba{68, 1, 84, 255}));
+  EXPECT_EQ(viridis(1), (Rgba{253, 231, 37, 255}));
+  double last = -1;
+  for (int i = 0; i <= 20; ++i) {
+    const Rgba c = viridis(i / 20.0);
+    const double y = 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b;
+    EXPECT_GT(y, last);
+    last = y;
+  }
+}
+
+TEST(Plot, RendersSeriesAxesAndLegend) {
+  Plot p;
+  p.title = "Convergence";
+  p.x = {"cell size", "m", true};
+  p.y = {"tip error", "m", true};
+  PlotSeries a{"corotational", {0.1, 0.05, 0.025, 0.0125}, {1e-2, 2.6e-3, 6.4e-4, 1.6e-4}, SeriesStyle::line_and_markers};
+  PlotSeries b{"linear", {0.1, 0.05, 0.025, 0.0125}, {3e-2, 2e-2, 1.7e-2, 1.6e-2}, SeriesStyle::scatter};
+  PlotSeries c{"", {0.1, 0.0}, {1e-3, -1}, SeriesStyle::line};  // non-positive values are left out on log axes
+  p.series = {a, b, c};
+  const Image img = render_plot(p);
+  EXPECT_EQ(img.width(), 800);
+  EXPECT_EQ(img.height(), 600);
+  const Rgba white{255, 255, 255, 255};
+  EXPECT_GT(ink(img, 0, 0, 800, 600, white), 5000u);
+  // The series colours are present.
+  auto has = [&](Rgba want) {
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x)
+        if (img.get(x, y) == want) return true;
+    return false;
+  };
+  EXPECT_TRUE(has(palette(0)));
+  EXPECT_TRUE(has(palette(1)));
+  // The x label sits at the bottom, the y label at the left.
+  EXPECT_GT(ink(img, 200, 560, 600, 600, white), 100u);
+  EXPECT_GT(ink(img, 0, 150, 30, 450, white), 100u);
+  write_plot_png(p, scratch() / "plot.png");
+  EXPECT_EQ(read_png(scratch() / "plot.png").width(), 800);
+
+  Plot linear;
+  linear.x = {"time", "s"};
+  linear.y = {"energy", "J"};
+  linear.series.push_back({"kinetic", {0, 1, 2, 3}, {0, 1, 4, 9}});
+  linear.width = 400;
+  linear.height = 300;
+  EXPECT_EQ(render_plot(linear).width(), 400);
+  Plot empty;
+  EXPECT_EQ(render_plot(empty).height(), 600);
+}
+
+TEST(Plot, BadSeriesAreErrors) {
+  Plot p;
+  p.title = "t";
+  p.series.push_back({"s", {1, 2, 3}, {1, 2}});
+  EXPECT_THROW(render_plot(p), InputError);
+  Plot q;
+  q.width = 10;
+  EXPECT_THROW(render_plot(q), InputError);
+}
+
+}  // namespace

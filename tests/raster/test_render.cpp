@@ -1,0 +1,482 @@
+// Pictures of bodies: a render of a known scene is not blank, shows the body where the camera
+// looks, has the requested size and matches a committed reference within a tolerance meant to
+// survive Mesa/llvmpipe versions (mean absolute difference and silhouette overlap, not bytes);
+// bad field and camera names are clear errors; taking pictures during a run leaves the state
+// hash unchanged; the recorder writes numbered frames and a contact sheet.
+//
+// To regenerate the reference after an intended change of the pictures:
+//   PLIANT_UPDATE_REFERENCE=1 ./test_render --gtest_filter='*Reference*'
+// and look at tests/raster/data/beam_reference.png before committing it.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "pliant/error.hpp"
+#include "pliant/raster/image.hpp"
+#include "pliant/raster/recorder.hpp"
+#include "pliant/raster/render.hpp"
+#include "pliant/run.hpp"
+#include "pliant/scene.hpp"
+#include "pliant/world.hpp"
+
+namespace {
+// Removes this process's scratch folder when the tests end.
+struct ScratchCleanup : ::testing::Environment {
+  void TearDown() override {
+    std::error_code ec;
+    std::filesystem::remove_all(std::filesystem::temp_directory_path() / ("pliant_test_raster_" + std::to_string(::getpid())), ec);
+  }
+};
+const auto* const kCleanup = ::testing::AddGlobalTestEnvironment(new ScratchCleanup);
+
+using namespace pliant;
+using namespace pliant::raster;
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+
+const fs::path kData = fs::path(PLIANT_SOURCE_DIR) / "tests" / "raster" / "data";
+
+fs::path scratch(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("pliant_test_raster_" + std::to_string(::getpid())) / name;
+  fs::create_directories(p);
+  return p;
+}
+
+// A 1 m x 0.1 m x 0.1 m beam bent downwards along x (an analytic shape, no simulation), fixed
+// at x = 0, a probe at its tip, coloured by displacement.
+Frame bent_beam(Field field = Field::displacement) {
+  TetMesh rest = make_box_mesh({0, 0, 0}, {1, 0.1, 0.1}, {20, 2, 2}, 6);
+  TetMesh bent = rest;
+  for (std::size_t i = 0; i < bent.node_count(); ++i) {
+    const double x = rest.points[3 * i];
+    bent.points[3 * i + 2] -= 0.25 * x * x;
+  }
+  Frame f = frame_from_mesh(bent, "beam", field, field == Field::displacement ? &rest : nullptr);
+  // Mark the clamped end as fixed, as a world would.
+  auto topo = std::make_shared<SurfaceTopology>(*f.bodies[0].topology);
+  for (std::size_t s = 0; s < topo->source_node.size(); ++s)
+    if (rest.points[3 * std::size_t(topo->source_node[s])] == 0.0) topo->fixed.push_back(std::int32_t(s));
+  f.bodies[0].topology = topo;
+  f.has_time = true;
+  f.time = 0.25;
+  f.probes.push_back({"tip", {1.0, 0.05, 0.05 - 0.25}});
+  return f;
+}
+
+std::size_t count(const std::vector<std::uint8_t>& mask) {
+  std::size_t n = 0;
+  for (auto m : mask) n += m;
+  return n;
+}
+
+Renderer& renderer() {
+  static Renderer r;
+  return r;
+}
+
+TEST(Render, NotBlankAndOfTheRequestedSize) {
+  const Frame f = bent_beam();
+  for (auto [w, h] : {std::pair{320, 180}, {200, 300}, {641, 377}}) {
+    RenderOptions o;
+    o.width = w;
+    o.height = h;
+    std::vector<std::uint8_t> mask;
+    const Image img = renderer().render(f, o, &mask);
+    EXPECT_EQ(img.width(), w);
+    EXPECT_EQ(img.height(), h);
+    ASSERT_EQ(mask.size(), std::size_t(w) * h);
+    const double covered = double(count(mask)) / double(mask.size());
+    EXPECT_GT(covered, 0.03) << w << "x" << h;
+    EXPECT_LT(covered, 0.8) << w << "x" << h;
+    // Many distinct colours (shading, colour map), not a flat picture.
+    std::vector<std::uint32_t> colours;
+    for (int y = 0; y < h; y += 3)
+      for (int x = 0; x < w; x += 3) {
+        const Rgba c = img.get(x, y);
+        colours.push_back(std::uint32_t(c.r) << 16 | std::uint32_t(c.g) << 8 | c.b);
+      }
+    std::sort(colours.begin(), colours.end());
+    colours.erase(std::unique(colours.begin(), colours.end()), colours.end());
+    EXPECT_GT(colours.size(), 100u);
+    // The written file has the size too.
+    const fs::path png = scratch("size") / "beam.png";
+    write_png(img, png);
+    const Image back = read_png(png);
+    EXPECT_EQ(back.width(), w);
+    EXPECT_EQ(back.height(), h);
+    EXPECT_EQ(back.bytes(), img.bytes());
+  }
+}
+
+TEST(Render, BodyIsWhereTheCameraLooks) {
+  const Frame f = bent_beam();
+  RenderOptions o;
+  o.width = 400;
+  o.height = 300;
+  o.colour_bar = o.time_label = o.legend = false;  // the view fills the picture: target at its centre
+  o.camera = CameraDef{{0.5, -1.2, 0.4}, {0.5, 0.05, 0.05 - 0.0625}, {0, 0, 1}, 35};
+  std::vector<std::uint8_t> mask;
+  renderer().render(f, o, &mask);
+  EXPECT_EQ(resolve_view(f, o).position, o.camera->position);
+  EXPECT_EQ(resolve_view(f, o).target, o.camera->target);
+  for (int dy = -2; dy <= 2; ++dy)
+    for (int dx = -2; dx <= 2; ++dx) EXPECT_EQ(mask[std::size_t(150 + dy) * 400 + 200 + dx], 1);
+  // Looking the other way: no body at all.
+  o.camera = CameraDef{{0.5, -1.2, 0.4}, {0.5, -3, 0.4}, {0, 0, 1}, 35};
+  renderer().render(f, o, &mask);
+  EXPECT_EQ(count(mask), 0u);
+  // The automatic camera frames the whole body: silhouette inside, touching no edge; it looks
+  // from above, from the front (-y) side.
+  o.camera.reset();
+  const View v = resolve_view(f, o);
+  EXPECT_GT(v.position[2], v.target[2]);
+  EXPECT_LT(v.position[1], v.target[1]);
+  renderer().render(f, o, &mask);
+  ASSERT_GT(count(mask), 0u);
+  for (int x = 0; x < 400; ++x) {
+    EXPECT_EQ(mask[std::size_t(x)], 0);
+    EXPECT_EQ(mask[std::size_t(299) * 400 + x], 0);
+  }
+  for (int y = 0; y < 300; ++y) {
+    EXPECT_EQ(mask[std::size_t(y) * 400], 0);
+    EXPECT_EQ(mask[std::size_t(y) * 400 + 399], 0);
+  }
+}
+
+TEST(Render, PresetsAndFieldsRender) {
+  for (const char* cam : {"auto", "front", "side", "top", "scene"})
+    for (Field field : {Field::none, Field::displacement}) {
+      RenderOptions o;
+      o.width = 160;
+      o.height = 120;
+      o.preset = parse_camera_preset(cam);
+      std::vector<std::uint8_t> mask;
+      renderer().render(bent_beam(field), o, &mask);
+      EXPECT_GT(count(mask), 100u) << cam << " " << to_string(field);
+    }
+}
+
+// How far a picture is from another: mean absolute difference of the colour channels (0..1)
+// and intersection over union of the body silhouettes.
+struct Difference {
+  double mad = 1, iou = 0;
+};
+Difference compare(const Image& img, const std::vector<std::uint8_t>& mask, const Image& want, const Image& want_mask) {
+  Difference d;
+  if (want.width() != img.width() || want.height() != img.height()) return d;
+  double sum = 0;
+  for (std::size_t i = 0; i < img.bytes().size(); ++i)
+    if (i % 4 != 3) sum += std::abs(int(img.bytes()[i]) - int(want.bytes()[i]));
+  d.mad = sum / double(img.bytes().size() * 3 / 4) / 255.0;
+  std::size_t inter = 0, uni = 0;
+  for (int y = 0; y < img.height(); ++y)
+    for (int x = 0; x < img.width(); ++x) {
+      const bool a = mask[std::size_t(y) * img.width() + x] != 0, b = want_mask.get(x, y).r > 127;
+      inter += a && b;
+      uni += a || b;
+    }
+  d.iou = uni ? double(inter) / double(uni) : 0;
+  return d;
+}
+
+RenderOptions reference_options() {
+  RenderOptions o;
+  o.width = 480;
+  o.height = 270;
+  return o;
+}
+
+TEST(Render, MatchesTheReferenceImage) {
+  const Frame f = bent_beam();
+  const RenderOptions o = reference_options();
+  std::vector<std::uint8_t> mask;
+  const Image img = renderer().render(f, o, &mask);
+  const fs::path ref = kData / "beam_reference.png", ref_mask = kData / "beam_reference_mask.png";
+  if (std::getenv("PLIANT_UPDATE_REFERENCE")) {
+    Image mask_img(o.width, o.height, {0, 0, 0, 255});
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x)
+        if (mask[std::size_t(y) * o.width + x]) mask_img.set(x, y, {255, 255, 255, 255});
+    write_png(img, ref, 9);
+    write_png(mask_img, ref_mask, 9);
+    GTEST_SKIP() << "reference written to " << ref;
+  }
+  const Image want = read_png(ref), want_mask = read_png(ref_mask);
+  ASSERT_EQ(want.width(), img.width());
+  ASSERT_EQ(want.height(), img.height());
+  // Tolerances meant to survive llvmpipe's rasterisation and multisampling changes, not bytes.
+  const Difference d = compare(img, mask, want, want_mask);
+  EXPECT_LT(d.mad, 0.03) << "mean absolute difference";
+  EXPECT_GT(d.iou, 0.95) << "silhouette overlap";
+}
+
+TEST(Render, ReferenceToleranceSeparatesRasterisationFromContent) {
+  const Image want = read_png(kData / "beam_reference.png"), want_mask = read_png(kData / "beam_reference_mask.png");
+  std::vector<std::uint8_t> mask;
+  // Another rasterisation of the same picture (no multisampling: every edge pixel differs) passes...
+  RenderOptions o = reference_options();
+  o.samples = 1;
+  Image img = renderer().render(bent_beam(), o, &mask);
+  Difference d = compare(img, mask, want, want_mask);
+  EXPECT_LT(d.mad, 0.03);
+  EXPECT_GT(d.iou, 0.95);
+  std::printf("no multisampling: mean abs diff %.4f, silhouette IoU %.4f\n", d.mad, d.iou);
+  // ... a different colouring fails ...
+  img = renderer().render(bent_beam(Field::none), reference_options(), &mask);
+  EXPECT_GT(compare(img, mask, want, want_mask).mad, 0.03);
+  // ... and so does a body in another place.
+  Frame moved = bent_beam();
+  for (std::size_t i = 2; i < moved.bodies[0].points.size(); i += 3) moved.bodies[0].points[i] += 0.08f;
+  o = reference_options();
+  o.framing = bounds_of(bent_beam());  // the reference's camera and grid
+  o.framing_points = framing_sample(bent_beam(), 20000);
+  img = renderer().render(moved, o, &mask);
+  d = compare(img, mask, want, want_mask);
+  EXPECT_LT(d.iou, 0.95);
+  EXPECT_GT(d.iou, 0.2);  // same camera: the silhouettes still overlap
+}
+
+TEST(Render, IsDeterministic) {
+  const Frame f = bent_beam();
+  RenderOptions o;
+  o.width = 300;
+  o.height = 200;
+  EXPECT_EQ(renderer().render(f, o).bytes(), renderer().render(f, o).bytes());
+}
+
+TEST(Render, BadNamesAndValuesAreClearErrors) {
+  try {
+    parse_field("stress", "--field");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--field: unknown field \"stress\""));
+    EXPECT_THAT(e.what(), HasSubstr("displacement, von_mises, none"));
+  }
+  try {
+    parse_camera_preset("iso", "--camera");
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--camera: unknown camera \"iso\""));
+    EXPECT_THAT(e.what(), HasSubstr("scene, auto, front, side, top"));
+  }
+  auto camera_error = [](CameraDef c) {
+    try {
+      validate_camera(c, "camera");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_THAT(camera_error({{0, 0, 1}, {0, 0, 0}, {0, 0, 1}, 40}), HasSubstr("camera.up"));
+  EXPECT_THAT(camera_error({{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, 40}), HasSubstr("camera.target"));
+  EXPECT_THAT(camera_error({{0, -1, 0}, {0, 0, 0}, {0, 0, 1}, 0}), HasSubstr("camera.fov_deg"));
+  EXPECT_THAT(camera_error({{0, -1, 0}, {0, 0, 0}, {0, 0, 1}, 180}), HasSubstr("camera.fov_deg"));
+  EXPECT_THAT(camera_error({{0, -1, 0}, {0, 0, 0}, {0, 0, 0}, 40}), HasSubstr("camera.up"));
+  EXPECT_EQ(camera_error({{0, -1, 0}, {0, 0, 0}, {0, 0, 1}, 40}), "");
+  // A bad camera in the options of a render is refused the same way.
+  RenderOptions o;
+  o.camera = CameraDef{{0, 0, 1}, {0, 0, 0}, {0, 0, 1}, 40};
+  EXPECT_THROW(renderer().render(bent_beam(), o), InputError);
+  o.camera.reset();
+  o.width = 8;
+  EXPECT_THROW(renderer().render(bent_beam(), o), InputError);
+  // Fields a mesh file cannot give.
+  const TetMesh m = make_box_mesh({0, 0, 0}, {1, 1, 1}, {1, 1, 1}, 6);
+  EXPECT_THROW(frame_from_mesh(m, "m.vtu", Field::von_mises), InputError);
+  EXPECT_THROW(frame_from_mesh(m, "m.vtu", Field::displacement), InputError);
+  EXPECT_NO_THROW(frame_from_mesh(m, "m.vtu", Field::none));
+}
+
+// ---- scene camera block ----
+
+std::string scene_error(const std::string& camera) {
+  const std::string text = R"({"bodies": [{"mesh": {"box": {}}}], "camera": )" + camera + "}";
+  try {
+    parse_scene(text, "s.json", ".");
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(SceneCamera, ParsedWithDefaults) {
+  const SceneDef s = parse_scene(
+      R"({"bodies": [{"mesh": {"box": {}}}], "camera": {"position": [1, -2, 0.5], "target": [0.5, 0, 0]}})", "s.json", ".");
+  ASSERT_TRUE(s.camera.has_value());
+  EXPECT_EQ(s.camera->position, (Vec3d{1, -2, 0.5}));
+  EXPECT_EQ(s.camera->target, (Vec3d{0.5, 0, 0}));
+  EXPECT_EQ(s.camera->up, (Vec3d{0, 0, 1}));
+  EXPECT_EQ(s.camera->fov_deg, 40);
+  const SceneDef t = parse_scene(
+      R"({"bodies": [{"mesh": {"box": {}}}], "camera": {"position": [0, 0, 3], "target": [0, 0, 0], "up": [0, 1, 0], "fov_deg": 25}})",
+      "s.json", ".");
+  EXPECT_EQ(t.camera->up, (Vec3d{0, 1, 0}));
+  EXPECT_EQ(t.camera->fov_deg, 25);
+  EXPECT_FALSE(parse_scene(R"({"bodies": [{"mesh": {"box": {}}}]})", "s.json", ".").camera.has_value());
+  EXPECT_TRUE(parse_scene(R"({"bodies": [{"mesh": {"box": {}}}], "output": {"sheet": true}})", "s.json", ".").output.sheet);
+}
+
+TEST(SceneCamera, ErrorsNameTheField) {
+  EXPECT_THAT(scene_error(R"({"target": [0, 0, 0]})"), HasSubstr("s.json: camera.position: missing (required)"));
+  EXPECT_THAT(scene_error(R"({"position": [0, 0, 1], "target": [0, 0, 1]})"), HasSubstr("s.json: camera.target: must differ"));
+  EXPECT_THAT(scene_error(R"({"position": [0, 0, 1], "target": [0, 0, 0]})"),
+              HasSubstr("s.json: camera.up: is along the view direction"));
+  EXPECT_THAT(scene_error(R"({"position": [0, -1, 0], "target": [0, 0, 0], "fov_deg": 180})"),
+              HasSubstr("s.json: camera.fov_deg: must be in (0, 180)"));
+  EXPECT_THAT(scene_error(R"({"position": [0, -1, 0], "target": [0, 0, 0], "fov_dg": 30})"),
+              HasSubstr("camera.fov_dg: unknown key; known keys: position, target, up, fov_deg; did you mean \"fov_deg\"?"));
+  EXPECT_THAT(scene_error(R"({"position": [0, -1], "target": [0, 0, 0]})"),
+              HasSubstr("camera.position: expected an array of 3 numbers"));
+  EXPECT_THAT(scene_error(R"("front")"), HasSubstr("camera: expected an object"));
+  // Overrides reach the camera block too.
+  const std::string edited = apply_scene_overrides(
+      R"({"bodies": [{"mesh": {"box": {}}}], "camera": {"position": [0, -1, 0], "target": [0, 0, 0]}})",
+      {"camera.fov_deg=20"}, "s.json");
+  EXPECT_EQ(parse_scene(edited, "s.json", ".").camera->fov_deg, 20);
+}
+
+// ---- pictures during a run ----
+
+SceneDef small_scene() {
+  return parse_scene(R"({
+    "duration": 0.02, "threads": 2,
+    "bodies": [{"name": "b", "mesh": {"box": {"min": [0,0,0], "max": [0.2,0.05,0.05], "cells": [8,2,2]}},
+                "material": {"young": 1e5},
+                "fixed": [{"box": {"min": [-1,-1,-1], "max": [0.0001,1,1]}}],
+                "prescribed": [{"region": {"box": {"min": [0.19,-1,-1], "max": [1,1,1]}},
+                                "keyframes": [{"time": 0, "offset": [0,0,0]}, {"time": 0.02, "offset": [0,0,-0.01]}]}]}],
+    "probes": [{"name": "mid", "body": "b", "point": [0.1, 0.025, 0.025]}]
+  })",
+                     "small.json", ".");
+}
+
+TEST(Recorder, PicturesDoNotChangeTheSimulation) {
+  const SceneDef scene = small_scene();
+  RunOptions plain;
+  plain.write_files = false;
+  const std::string hash = run_scene(scene, plain).state_hash;
+  for (Field field : {Field::displacement, Field::von_mises}) {
+    RecorderOptions ro;
+    ro.out_dir = scratch(std::string("hash_") + to_string(field));
+    ro.png_every = 0.005;
+    ro.sheet = true;
+    ro.width = 160;
+    ro.height = 90;
+    ro.sheet_thumb_width = 120;
+    ro.field = field;
+    FrameRecorder rec(scene, ro, scene.duration);
+    RunOptions with = plain;
+    with.frame_every = rec.frame_every();
+    with.on_frame = [&](const World& w) { rec.capture(w); };
+    EXPECT_EQ(run_scene(scene, with).state_hash, hash) << to_string(field);
+    const RecorderResult r = rec.finish();
+    EXPECT_EQ(r.frames, 5);  // t = 0, 0.005, ..., 0.02
+    for (int i = 0; i < 5; ++i) {
+      const Image img = read_png(ro.out_dir / frame_file(i));
+      EXPECT_EQ(img.width(), 160);
+      EXPECT_EQ(img.height(), 90);
+    }
+    EXPECT_FALSE(fs::exists(ro.out_dir / frame_file(5)));
+    const Image sheet = read_png(ro.out_dir / "sheet.png");
+    EXPECT_GT(sheet.width(), 4 * 120);
+    EXPECT_GT(sheet.height(), 2 * 68);
+  }
+}
+
+TEST(Recorder, CapturedFrameMarksFixedDrivenAndProbes) {
+  World world = make_world(small_scene());
+  const Frame f = capture(world, Field::displacement);
+  ASSERT_EQ(f.bodies.size(), 1u);
+  const auto& topo = *f.bodies[0].topology;
+  EXPECT_GT(topo.fixed.size(), 0u);
+  EXPECT_GT(topo.driven.size(), 0u);
+  EXPECT_EQ(f.probes.size(), 1u);
+  EXPECT_EQ(f.bodies[0].points.size(), 3 * topo.source_node.size());
+  EXPECT_EQ(f.bodies[0].values.size(), topo.source_node.size());
+  EXPECT_EQ(max_value(f), 0.0);  // rest state
+}
+
+TEST(Recorder, SheetGetsItsOwnFramesWhenNumberedFramesAreFew) {
+  const SceneDef scene = small_scene();
+  RecorderOptions ro;
+  ro.out_dir = scratch("sparse_frames");
+  ro.png_every = 0.01;  // 3 numbered frames; the sheet still gets about 12 pictures
+  ro.sheet = true;
+  ro.width = 160;
+  ro.height = 90;
+  ro.sheet_thumb_width = 100;
+  FrameRecorder rec(scene, ro, scene.duration);
+  EXPECT_LE(rec.frame_every(), 0.02 / 11);
+  RunOptions opt;
+  opt.write_files = false;
+  opt.frame_every = rec.frame_every();
+  opt.on_frame = [&](const World& w) { rec.capture(w); };
+  run_scene(scene, opt);
+  const RecorderResult r = rec.finish();
+  EXPECT_EQ(r.frames, 3);
+  EXPECT_TRUE(fs::exists(ro.out_dir / frame_file(2)));
+  EXPECT_FALSE(fs::exists(ro.out_dir / frame_file(3)));
+  const Image sheet = read_png(ro.out_dir / "sheet.png");
+  EXPECT_GT(sheet.height(), 3 * 56);  // three rows of thumbnails
+}
+
+TEST(Recorder, SheetOnlyRunWritesNoFrames) {
+  const SceneDef scene = small_scene();
+  RecorderOptions ro;
+  ro.out_dir = scratch("sheet_only");
+  ro.sheet = true;
+  ro.width = 160;
+  ro.height = 90;
+  ro.sheet_thumb_width = 100;
+  FrameRecorder rec(scene, ro, scene.duration);
+  RunOptions opt;
+  opt.write_files = false;
+  opt.frame_every = rec.frame_every();
+  opt.on_frame = [&](const World& w) { rec.capture(w); };
+  run_scene(scene, opt);
+  const RecorderResult r = rec.finish();
+  EXPECT_EQ(r.frames, 0);
+  EXPECT_FALSE(fs::exists(ro.out_dir / frame_file(0)));
+  EXPECT_TRUE(fs::exists(ro.out_dir / "sheet.png"));
+}
+
+TEST(Recorder, TinyMemoryBudgetStillWritesEverything) {
+  const SceneDef scene = small_scene();
+  RecorderOptions ro;
+  ro.out_dir = scratch("budget");
+  ro.png_every = 0.002;
+  ro.sheet = true;
+  ro.width = 96;
+  ro.height = 64;
+  ro.sheet_thumb_width = 64;
+  ro.memory_budget = 1;  // flush at every frame
+  FrameRecorder rec(scene, ro, scene.duration);
+  RunOptions opt;
+  opt.write_files = false;
+  opt.frame_every = rec.frame_every();
+  opt.on_frame = [&](const World& w) { rec.capture(w); };
+  run_scene(scene, opt);
+  const RecorderResult r = rec.finish();
+  EXPECT_EQ(r.frames, 11);
+  EXPECT_TRUE(fs::exists(ro.out_dir / frame_file(10)));
+  EXPECT_TRUE(fs::exists(ro.out_dir / "sheet.png"));
+  EXPECT_FALSE(r.notes.empty());
+}
+
+TEST(Recorder, BadOptionsAreRefused) {
+  const SceneDef scene = small_scene();
+  RecorderOptions ro;
+  ro.out_dir = scratch("bad");
+  ro.png_every = -1;
+  EXPECT_THROW(FrameRecorder(scene, ro, 1.0), InputError);
+  ro.png_every = 0.1;
+  ro.width = 10;
+  EXPECT_THROW(FrameRecorder(scene, ro, 1.0), InputError);
+}
+
+}  // namespace
