@@ -7,47 +7,12 @@
 #include <numeric>
 #include <random>
 
-#include "pliant/kernels/element_forces.hpp"
-#include "pliant/kernels/node_passes.hpp"
+#include "pliant/level_passes.hpp"
 
 namespace pliant::perf {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-
-template <class T>
-ElementContext<T> element_context(Level<T>& L) {
-  ElementContext<T> c;
-  for (int k = 0; k < 3; ++k) {
-    c.X[k] = L.X[k].data();
-    c.x[k] = L.x[k].data();
-    c.v[k] = L.v[k].data();
-  }
-  for (int a = 0; a < 4; ++a) c.tet[a] = L.tet[a].data();
-  c.volume = L.volume.data();
-  for (int q = 0; q < 9; ++q) c.grad[q] = L.grad[q].data();
-  if (!L.rotation[0].empty())
-    for (int k = 0; k < 4; ++k) c.rotation[k] = L.rotation[k].data();
-  c.lambda = L.lambda;
-  c.mu = L.mu;
-  c.bulk_viscosity = L.bulk_viscosity;
-  c.shear_viscosity = L.shear_viscosity;
-  c.young = L.young;
-  c.spring_damping = L.stiffness_damping;
-  for (int q = 0; q < 12; ++q) c.corner_force[q] = L.corner_force[q].data();
-  return c;
-}
-
-template <class T>
-void (*force_kernel(ForceModel m))(const ElementContext<T>&, Range) {
-  switch (m) {
-    case ForceModel::linear: return &element_forces_linear<T>;
-    case ForceModel::stvk: return &element_forces_stvk<T>;
-    case ForceModel::corotational: return &element_forces_corotational<T>;
-    case ForceModel::springs: return &element_forces_springs<T>;
-  }
-  return &element_forces_linear<T>;
-}
 
 double seconds_between(Clock::time_point a, Clock::time_point b) { return std::chrono::duration<double>(b - a).count(); }
 
@@ -76,31 +41,18 @@ struct Runner final : StepRunner::Impl {
     Level<T>& L = w.level<T>(0);
     ec = element_context(L);
     pass = force_kernel<T>(L.model);
-    gc.offsets = L.incidence_offsets.data();
-    gc.incidence = L.incidence.data();
-    for (int q = 0; q < 12; ++q) gc.corner_force[q] = L.corner_force[q].data();
-    for (int k = 0; k < 3; ++k) {
-      gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();
-      gc.f[k] = L.f[k].data();
-      ic.x[k] = L.x[k].data();
-      ic.v[k] = L.v[k].data();
-      ic.f[k] = L.f[k].data();
-    }
-    ic.gravity[2] = T(-9.81);  // the box world's gravity
-    ic.inv_mass = L.inv_mass.data();
-    ic.state = L.state.data();
-    ic.dt = T(w.dt());
-    ic.mass_damping = L.mass_damping;
+    gc = gather_context(L);
+    ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());  // the box world's gravity
     nt = L.tet_count;
     nn = L.node_count;
   }
-  void element() override { ex.parallel_for(nt, grain(nt, kTetGrain), [&](Range r) { pass(ec, r); }); }
-  void gather() override { ex.parallel_for(nn, grain(nn, kNodeGrain), [&](Range r) { gather_forces(gc, r); }); }
+  void element() override { ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); }); }
+  void gather() override { ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { gather_forces(gc, r); }); }
   void integrate() override {
-    ex.parallel_all(nn, grain(nn, kNodeGrain), [&](Range r) { return integrate_symplectic_euler(ic, r); });
+    ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return integrate_symplectic_euler(ic, r); });
   }
   void gather_integrate() override {
-    ex.parallel_all(nn, grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
+    ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
   }
 };
 

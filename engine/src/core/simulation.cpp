@@ -7,56 +7,10 @@
 #include <cmath>
 #include <fmt/format.h>
 
-#include "pliant/kernels/element_forces.hpp"
-#include "pliant/kernels/node_passes.hpp"
+#include "pliant/level_passes.hpp"
 
 namespace pliant::detail {
 namespace {
-
-// Tasks of about 1024 tets (5-20 us) or nodes (3-5 us): enough tasks for balance on 2 threads
-// from about 10k tets on. Below kSerialBelow items a loop runs on the calling thread: waking a
-// second thread costs more than it saves there (1k tets: 2 threads were 1.4x slower than 1).
-constexpr std::size_t kTetGrain = 1024;
-constexpr std::size_t kNodeGrain = 1024;
-constexpr std::size_t kSerialBelow = 2048;
-std::size_t grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
-
-template <class T>
-ElementContext<T> element_context(const Level<T>& L) {
-  ElementContext<T> c;
-  for (int k = 0; k < 3; ++k) {
-    c.X[k] = L.X[k].data();
-    c.x[k] = L.x[k].data();
-    c.v[k] = L.v[k].data();
-  }
-  for (int a = 0; a < 4; ++a) c.tet[a] = L.tet[a].data();
-  c.volume = L.volume.data();
-  for (int q = 0; q < 9; ++q) c.grad[q] = L.grad[q].data();
-  if (!L.rotation[0].empty())
-    for (int k = 0; k < 4; ++k) c.rotation[k] = const_cast<T*>(L.rotation[k].data());
-  c.lambda = L.lambda;
-  c.mu = L.mu;
-  c.bulk_viscosity = L.bulk_viscosity;
-  c.shear_viscosity = L.shear_viscosity;
-  c.young = L.young;
-  c.spring_damping = L.stiffness_damping;
-  for (int q = 0; q < 12; ++q) c.corner_force[q] = const_cast<T*>(L.corner_force[q].data());
-  return c;
-}
-
-template <class T>
-using ElementPass = void (*)(const ElementContext<T>&, Range);
-
-template <class T>
-ElementPass<T> force_kernel(ForceModel m) {
-  switch (m) {
-    case ForceModel::linear: return &element_forces_linear<T>;
-    case ForceModel::stvk: return &element_forces_stvk<T>;
-    case ForceModel::corotational: return &element_forces_corotational<T>;
-    case ForceModel::springs: return &element_forces_springs<T>;
-  }
-  return &element_forces_linear<T>;
-}
 
 template <class T>
 using EnergyPass = void (*)(const ElementContext<T>&, Range, double*);
@@ -82,31 +36,14 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
       Level<T>& L = body.levels[l];
       const ElementContext<T> ec = element_context(L);
       const ElementPass<T> pass = force_kernel<T>(L.model);
-      exec.parallel_for(L.tet_count, grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
+      exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
 
-      GatherContext<T> gc;
-      gc.offsets = L.incidence_offsets.data();
-      gc.incidence = L.incidence.data();
-      for (int q = 0; q < 12; ++q) gc.corner_force[q] = L.corner_force[q].data();
-      for (int k = 0; k < 3; ++k) {
-        gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();
-        gc.f[k] = L.f[k].data();
-      }
-      IntegrateContext<T> ic;
-      for (int k = 0; k < 3; ++k) {
-        ic.x[k] = L.x[k].data();
-        ic.v[k] = L.v[k].data();
-        ic.f[k] = L.f[k].data();
-        ic.gravity[k] = gravity[k];
-      }
-      ic.inv_mass = L.inv_mass.data();
-      ic.state = L.state.data();
-      ic.dt = T(dt);
-      ic.mass_damping = L.mass_damping;
+      const GatherContext<T> gc = gather_context(L);
+      const IntegrateContext<T> ic = integrate_context(L, gravity, dt);
       // Gather and integrate fused: each node's force is used while in registers (the same
       // bits as the two passes). Nodes only read corner forces, which the element pass has
       // finished writing, so node ranges are independent.
-      const bool finite = exec.parallel_all(L.node_count, grain(L.node_count, kNodeGrain),
+      const bool finite = exec.parallel_all(L.node_count, pass_grain(L.node_count, kNodeGrain),
                                             [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
       if (!finite) {
         std::size_t bad = 0;

@@ -47,15 +47,8 @@ struct PassCost {
 };
 PassCost pass_cost(const World& world, BodyId body, Pass pass);
 
-// Grains of the parallel loops, as in Simulation::step: tasks of 1024 items, and loops of fewer
-// than kSerialBelow items on the calling thread.
-inline constexpr std::size_t kTetGrain = 1024;
-inline constexpr std::size_t kNodeGrain = 1024;
-inline constexpr std::size_t kSerialBelow = 2048;
-inline std::size_t grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
-
 // The passes of a step of the world's first body (level 0), one call each, run on `exec` as
-// Simulation::step runs them (same kernels, same grains). A full step is element(), then
+// Simulation::step runs them (same kernels, same grains: pliant/level_passes.hpp). A full step is element(), then
 // gather() + integrate() or gather_integrate() (the same bits). The box world's gravity is used.
 class StepRunner {
  public:
