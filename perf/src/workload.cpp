@@ -199,18 +199,7 @@ BodyDef box_body(ForceModel model, const std::array<int, 3>& cells) {
 TetMesh box_mesh(const std::array<int, 3>& cells, Order order) {
   TetMesh grid = make_box_mesh({0, 0, 0}, {1, 0.25, 0.25}, cells, 6);
   if (order == Order::grid) return grid;
-  std::mt19937_64 rng(20261122);
-  std::vector<std::int32_t> perm(grid.node_count());
-  std::iota(perm.begin(), perm.end(), 0);
-  std::shuffle(perm.begin(), perm.end(), rng);  // perm[old] = new
-  TetMesh m;
-  m.points.resize(grid.points.size());
-  for (std::size_t i = 0; i < grid.node_count(); ++i)
-    for (int k = 0; k < 3; ++k) m.points[3 * std::size_t(perm[i]) + k] = grid.points[3 * i + k];
-  m.tets = std::move(grid.tets);
-  for (auto& t : m.tets)
-    for (auto& c : t) c = perm[std::size_t(c)];
-  std::shuffle(m.tets.begin(), m.tets.end(), rng);
+  TetMesh m = shuffled_order(grid, 20261122);
   if (order == Order::renumbered) renumber_for_locality(m);
   return m;
 }

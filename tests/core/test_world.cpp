@@ -215,9 +215,11 @@ TEST(Regions, FixedNodesDoNotMoveUnderGravity) {
   w.add_body(beam_def(ForceModel::stvk));
   for (int i = 0; i < 50; ++i) w.step();
   const auto& L = w.level<double>(0);
-  for (std::size_t n = 0; n < L.node_count; ++n)
-    if (L.X[0][n] <= 1e-6)
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    if (L.X[0][n] <= 1e-6) {
       for (int k = 0; k < 3; ++k) EXPECT_EQ(L.x[k][n], L.X[k][n]);
+    }
+  }
   EXPECT_GT(w.max_displacement(), 0.0);
 }
 

@@ -19,20 +19,7 @@ namespace {
 
 // A box mesh with its nodes and tets in random order (a stand-in for a mesher's output).
 TetMesh scrambled_box(int n, unsigned seed) {
-  TetMesh grid = make_box_mesh({0, 0, 0}, {1.0, 0.5, 0.25}, {n, n / 2, n / 4}, 6);
-  std::mt19937 rng(seed);
-  std::vector<std::int32_t> perm(grid.node_count());
-  std::iota(perm.begin(), perm.end(), 0);
-  std::shuffle(perm.begin(), perm.end(), rng);  // perm[old] = new
-  TetMesh m;
-  m.points.resize(grid.points.size());
-  for (std::size_t i = 0; i < grid.node_count(); ++i)
-    for (int k = 0; k < 3; ++k) m.points[3 * std::size_t(perm[i]) + k] = grid.points[3 * i + k];
-  m.tets = grid.tets;
-  for (auto& t : m.tets)
-    for (auto& c : t) c = perm[std::size_t(c)];
-  std::shuffle(m.tets.begin(), m.tets.end(), rng);
-  return m;
+  return shuffled_order(make_box_mesh({0, 0, 0}, {1.0, 0.5, 0.25}, {n, n / 2, n / 4}, 6), seed);
 }
 
 // Mean over tets of (largest - smallest corner index): small when tets touch nearby nodes.

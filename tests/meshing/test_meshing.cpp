@@ -52,7 +52,7 @@ double grid_volume(const std::string& shape, double r, double h) {
 // Sum of tet volumes; fails the test if any tet is not positively oriented, or (given a cell
 // size s) if a tet is smaller than 1e-3 s^3: a sliver or a speck that would cripple an explicit
 // time step. Exuded Mesh_3 meshes have a smallest tet of 1e-3 to 5e-2 s^3.
-double checked_volume(const TetMesh& m, double s = 0) {
+[[maybe_unused]] double checked_volume(const TetMesh& m, double s = 0) {  // used with CGAL only
   double total = 0, smallest = INFINITY;
   std::size_t bad = 0;
   for (const Tet& t : m.tets) {
@@ -76,7 +76,7 @@ struct TempDir {
 };
 
 // Cube [0, a]^3 as an OFF file of 12 outward triangles; drop_top leaves out the z = a face.
-fs::path write_cube_off(const fs::path& file, double a, bool drop_top) {
+[[maybe_unused]] fs::path write_cube_off(const fs::path& file, double a, bool drop_top) {
   std::ofstream out(file);
   const int faces = drop_top ? 10 : 12;
   out << "OFF\n8 " << faces << " 0\n";
@@ -92,7 +92,7 @@ fs::path write_cube_off(const fs::path& file, double a, bool drop_top) {
 }
 
 // Regular octahedron |x| + |y| + |z| <= r as an OBJ file of 8 triangles.
-fs::path write_octahedron_obj(const fs::path& file, double r) {
+[[maybe_unused]] fs::path write_octahedron_obj(const fs::path& file, double r) {
   std::ofstream out(file);
   out << "v " << r << " 0 0\nv " << -r << " 0 0\nv 0 " << r << " 0\nv 0 " << -r << " 0\n"
       << "v 0 0 " << r << "\nv 0 0 " << -r << "\n";

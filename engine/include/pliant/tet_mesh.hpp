@@ -48,11 +48,14 @@ void transform_mesh(TetMesh& mesh, double scale, const Vec3d& translate);
 
 // Reorders nodes and tets for memory locality (nodes along a 3D Hilbert curve through their
 // positions, tets by their smallest new corner indices; ties keep their order, so the result is
-// deterministic). The
-// corners of each tet keep their order (and orientation). Returns the node map:
+// deterministic). The corners of each tet keep their order (and orientation). Returns the node map:
 // old_to_new[old index] = new index. Expects valid indices (e.g. a finalized mesh).
 // build_mesh() applies it to meshes from files and from CGAL; box meshes are already in grid
 // order and are left alone.
 std::vector<std::int32_t> renumber_for_locality(TetMesh& mesh);
+
+// The same mesh with its nodes and tets in a random order drawn from `seed` (a stand-in for a
+// mesher's or file's order, for tests and benchmarks of renumbering). Corner order is kept.
+TetMesh shuffled_order(const TetMesh& mesh, std::uint64_t seed);
 
 }  // namespace pliant

@@ -10,6 +10,7 @@
 #include <cstdint>
 #include <limits>
 #include <numeric>
+#include <random>
 #include <vector>
 
 #include "pliant/tet_mesh.hpp"
@@ -118,6 +119,22 @@ std::vector<std::int32_t> renumber_for_locality(TetMesh& mesh) {
   }
   mesh.tets = std::move(tets);
   return old_to_new;
+}
+
+TetMesh shuffled_order(const TetMesh& mesh, std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::vector<std::int32_t> perm(mesh.node_count());
+  std::iota(perm.begin(), perm.end(), 0);
+  std::shuffle(perm.begin(), perm.end(), rng);  // perm[old] = new
+  TetMesh m;
+  m.points.resize(mesh.points.size());
+  for (std::size_t i = 0; i < mesh.node_count(); ++i)
+    for (int k = 0; k < 3; ++k) m.points[3 * std::size_t(perm[i]) + k] = mesh.points[3 * i + k];
+  m.tets = mesh.tets;
+  for (auto& t : m.tets)
+    for (auto& c : t) c = perm[std::size_t(c)];
+  std::shuffle(m.tets.begin(), m.tets.end(), rng);
+  return m;
 }
 
 }  // namespace pliant
