@@ -10,7 +10,7 @@ namespace pliant {
 
 template <class T>
 bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range r) {
-  bool finite = true;
+  bool finite = true;  // accumulated without branches; see within_bounds
   const T dt = c.dt;
   for (std::size_t n = r.begin; n < r.end; ++n) {
     if (c.state[n] != kNodeFree) continue;
@@ -20,7 +20,7 @@ bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range r) {
       const T x = c.x[k][n] + dt * v;
       c.v[k][n] = v;
       c.x[k][n] = x;
-      finite &= std::isfinite(x) & std::isfinite(v);
+      finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
     }
   }
   return finite;
@@ -107,7 +107,7 @@ PLIANT_SCALAR_LOOP bool gather_integrate(const GatherContext<T>& g, const Corner
       const T x = c.x[k][n] + dt * v;
       c.v[k][n] = v;
       c.x[k][n] = x;
-      finite &= std::isfinite(x) & std::isfinite(v);
+      finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
     }
   }
   return finite;

@@ -66,17 +66,21 @@ inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t,
 
 // extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing
 // at the iteration where the scalar loop breaks; the loop ends when every lane of every batch
-// has stopped (or after the same maximum number of iterations). K > 1 interleaves independent
-// chains through the iteration's long dependency chain, but on the machine measured
-// (docs/performance.md) register spills made K = 2 slower than K = 1, which the pass uses.
+// has stopped (or after the same maximum number of iterations). Lanes that reach a stationary
+// point with an indefinite Hessian take the scalar escape (escape_rotation) one lane at a time,
+// with the lane's own values, so that they too do exactly what the scalar loop does. K > 1
+// interleaves independent chains through the iteration's long dependency chain, but on the
+// machine measured (docs/performance.md) register spills made K = 2 slower than K = 1, which the
+// pass uses.
 template <class T, int K>
 __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<typename simd::Pack<T>::V> A[K],
                                                                     typename simd::Pack<T>::V q[K][4],
                                                                     Mat3<typename simd::Pack<T>::V> R[K]) {
   using V = typename simd::Pack<T>::V;
   using M = typename simd::Pack<T>::M;
+  constexpr int W = simd::Pack<T>::W;
   constexpr int kMaxIterations = 16;
-  const T tol = std::numeric_limits<T>::epsilon() < T(1e-10) ? T(1e-12) : T(4e-6);  // rad
+  const T tol = rotation_tolerance<T>();
   M active[K];
   for (int b = 0; b < K; ++b) {
     R[b] = quat_to_matrix(q[b]);
@@ -114,22 +118,46 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
         for (int k = 0; k < 3; ++k) w[b][k] = newton[b] ? w[b][k] : g[b][k] * s;
       }
     }
-    M any_active = M{};
+    // Lanes whose step is below the tolerance (or NaN) stop here, as the scalar break, unless
+    // they sit at a stationary point with an indefinite Hessian (the escape below).
+    M stepping[K], stalled[K];
+    M any_stalled = M{};
     for (int b = 0; b < K; ++b) {
       const V angle2 = w[b][0] * w[b][0] + w[b][1] * w[b][1] + w[b][2] * w[b][2];
-      active[b] &= (angle2 > tol * tol);  // converged lanes (and NaN) stop here, as the scalar break
-      any_active |= active[b];
+      const M moving = angle2 > tol * tol;
+      stepping[b] = active[b] & moving;
+      stalled[b] = active[b] & ~moving & ~newton[b];
+      active[b] = stepping[b];
+      any_stalled |= stalled[b];
     }
+    // Escapes (rare: a saddle or minimum of tr(R^T A), e.g. a half turn from the warm start), one
+    // lane at a time, on M recomputed (the same bits) rather than kept live through the loop.
+    if (simd::any(any_stalled)) {
+      for (int b = 0; b < K; ++b) {
+        if (!simd::any(stalled[b])) continue;
+        const Mat3<V> Mt = mul_tn(R[b], A[b]);
+        for (int l = 0; l < W; ++l) {
+          if (!stalled[b][l]) continue;
+          Mat3<T> m;
+          for (int i = 0; i < 3; ++i)
+            for (int j = 0; j < 3; ++j) m.m[i][j] = Mt.m[i][j][l];
+          T ql[4] = {q[b][0][l], q[b][1][l], q[b][2][l], q[b][3][l]};
+          if (escape_rotation(m, ql, tol)) {  // jumped: the lane goes on (the scalar `continue`)
+            for (int k = 0; k < 4; ++k) q[b][k][l] = ql[k];
+            active[b][l] = -1;
+          }
+        }
+      }
+    }
+    M any_active = M{};
+    for (int b = 0; b < K; ++b) any_active |= active[b];
     if (!simd::any(any_active)) break;
     for (int b = 0; b < K; ++b) {
       const V d[4] = {V{} + T(1), T(0.5) * w[b][0], T(0.5) * w[b][1], T(0.5) * w[b][2]};
-      const V* qb = q[b];
-      const V n[4] = {qb[0] * d[0] - qb[1] * d[1] - qb[2] * d[2] - qb[3] * d[3],
-                      qb[0] * d[1] + qb[1] * d[0] + qb[2] * d[3] - qb[3] * d[2],
-                      qb[0] * d[2] - qb[1] * d[3] + qb[2] * d[0] + qb[3] * d[1],
-                      qb[0] * d[3] + qb[1] * d[2] - qb[2] * d[1] + qb[3] * d[0]};
+      V n[4];
+      quat_mul(q[b], d, n);
       const V inv = T(1) / simd::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-      for (int k = 0; k < 4; ++k) q[b][k] = active[b] ? n[k] * inv : q[b][k];
+      for (int k = 0; k < 4; ++k) q[b][k] = stepping[b] ? n[k] * inv : q[b][k];
       R[b] = quat_to_matrix(q[b]);
     }
   }

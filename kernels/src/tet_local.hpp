@@ -148,21 +148,148 @@ inline Mat3<T> quat_to_matrix(const T q[4]) {
   return R;
 }
 
+// Tolerance of the rotation iteration: a step below it ends the iteration (rad).
+template <class T>
+inline scalar_t<T> rotation_tolerance() {
+  using S = scalar_t<T>;
+  return std::numeric_limits<S>::epsilon() < S(1e-10) ? S(1e-12) : S(4e-6);
+}
+
+// The escape from a stationary point of tr(R^T A) that is not its maximum (extract_rotation):
+// the body-frame rotation p that takes the current rotation R (with M = R^T A) to the *global*
+// maximiser of tr(R^T A) over all rotations. tr(R(p)^T M) is the quadratic form p^T N p of Horn's symmetric 4x4 matrix N (1987,
+// "Closed-form solution of absolute orientation using unit quaternions"), so the maximiser is the
+// eigenvector of N's largest eigenvalue, found here by cyclic Jacobi rotations (deterministic:
+// a fixed order, IEEE operations only). Where that eigenvalue is (numerically) repeated, p is the
+// projection of the current rotation (1, 0, 0, 0) onto its eigenspace: the nearest maximiser, so a
+// degenerate (flat) element keeps its rotation instead of jumping between equivalent ones.
+// Returns false, leaving p alone, when the current rotation is already a maximiser (within
+// rounding) or p would move it by less than `tol` rad, or on non-finite input: the iteration
+// has then converged.
+// Scalar only: the batched iteration calls it lane by lane (tet_batch.hpp), so a lane does the
+// same arithmetic as the scalar code. It is the rare path: a warm start 180 deg away from the
+// answer (a body turned over), where the gradient of tr(R^T A) vanishes and Newton's Hessian is
+// indefinite (no local method leaves such a saddle), or an exactly flat or mirrored tet (a
+// degenerate maximum, where it returns false). For det A < 0 the global maximiser is the
+// rotation of the SVD with the smallest singular value negated (invertible FEM).
+template <class S>
+inline bool max_trace_escape(const Mat3<S>& M, S tol, S p[4]) {
+  static_assert(std::is_floating_point_v<S>);
+  S a[4][4];
+  a[0][0] = M.m[0][0] + M.m[1][1] + M.m[2][2];
+  a[1][1] = M.m[0][0] - M.m[1][1] - M.m[2][2];
+  a[2][2] = M.m[1][1] - M.m[0][0] - M.m[2][2];
+  a[3][3] = M.m[2][2] - M.m[0][0] - M.m[1][1];
+  a[0][1] = a[1][0] = M.m[2][1] - M.m[1][2];
+  a[0][2] = a[2][0] = M.m[0][2] - M.m[2][0];
+  a[0][3] = a[3][0] = M.m[1][0] - M.m[0][1];
+  a[1][2] = a[2][1] = M.m[0][1] + M.m[1][0];
+  a[1][3] = a[3][1] = M.m[0][2] + M.m[2][0];
+  a[2][3] = a[3][2] = M.m[1][2] + M.m[2][1];
+  const S current = a[0][0];  // tr(M): the value at the current rotation
+  S v[4][4] = {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}};
+  constexpr S eps = std::numeric_limits<S>::epsilon();
+  for (int sweep = 0; sweep < 12; ++sweep) {
+    S off = 0, diag = 0;
+    for (int i = 0; i < 4; ++i) {
+      diag += a[i][i] * a[i][i];
+      for (int j = i + 1; j < 4; ++j) off += a[i][j] * a[i][j];
+    }
+    if (!(off > S(1e-4) * eps * eps * diag)) break;  // diagonal to rounding (also stops on NaN)
+    for (int r = 0; r < 3; ++r)
+      for (int c = r + 1; c < 4; ++c) {
+        const S arc = a[r][c];
+        if (arc == S(0)) continue;
+        const S theta = (a[c][c] - a[r][r]) / (S(2) * arc);
+        const S at = std::fabs(theta);
+        // t = tan of the rotation angle, the smaller root of t^2 + 2 theta t - 1 = 0.
+        S t = at > S(1e15) ? S(0.5) / at : S(1) / (at + std::sqrt(at * at + S(1)));
+        if (theta < S(0)) t = -t;
+        const S cs = S(1) / std::sqrt(t * t + S(1)), sn = t * cs;
+        for (int k = 0; k < 4; ++k) {
+          if (k == r || k == c) continue;
+          const S akr = a[k][r], akc = a[k][c];
+          a[k][r] = a[r][k] = cs * akr - sn * akc;
+          a[k][c] = a[c][k] = sn * akr + cs * akc;
+        }
+        a[r][r] -= t * arc;
+        a[c][c] += t * arc;
+        a[r][c] = a[c][r] = S(0);
+        for (int k = 0; k < 4; ++k) {
+          const S vkr = v[k][r], vkc = v[k][c];
+          v[k][r] = cs * vkr - sn * vkc;
+          v[k][c] = sn * vkr + cs * vkc;
+        }
+      }
+  }
+  int top = 0;
+  S scale = std::fabs(a[0][0]);
+  for (int i = 1; i < 4; ++i) {
+    if (a[i][i] > a[top][top]) top = i;
+    scale = std::fmax(scale, std::fabs(a[i][i]));
+  }
+  const S lmax = a[top][top], gap = S(64) * eps * scale;
+  if (!(lmax > current + gap)) return false;  // already a maximiser (or NaN)
+  S n[4] = {0, 0, 0, 0};
+  for (int i = 0; i < 4; ++i)
+    if (a[i][i] >= lmax - gap)
+      for (int k = 0; k < 4; ++k) n[k] += v[0][i] * v[k][i];
+  S norm2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3];
+  if (!(norm2 > S(1e-2))) {  // the current rotation is (nearly) orthogonal to the eigenspace
+    for (int k = 0; k < 4; ++k) n[k] = v[k][top];
+    norm2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3];
+  }
+  const S inv = (n[0] < S(0) ? S(-1) : S(1)) / std::sqrt(norm2);  // the shorter way round
+  for (int k = 0; k < 4; ++k) n[k] *= inv;
+  if (!(S(4) * (n[1] * n[1] + n[2] * n[2] + n[3] * n[3]) > tol * tol)) return false;  // angle ~ 2 |n_vec|
+  for (int k = 0; k < 4; ++k) p[k] = n[k];
+  return true;
+}
+
+// q <- q * d (Hamilton product: d is a body-frame increment), not normalised.
+template <class T, class D>
+inline void quat_mul(const T q[4], const D d[4], T out[4]) {
+  out[0] = q[0] * d[0] - q[1] * d[1] - q[2] * d[2] - q[3] * d[3];
+  out[1] = q[0] * d[1] + q[1] * d[0] + q[2] * d[3] - q[3] * d[2];
+  out[2] = q[0] * d[2] - q[1] * d[3] + q[2] * d[0] + q[3] * d[1];
+  out[3] = q[0] * d[3] + q[1] * d[2] - q[2] * d[1] + q[3] * d[0];
+}
+
+// One escape on a scalar rotation: q <- q * p normalised (max_trace_escape). Returns false when
+// the iteration has converged instead.
+template <class S>
+inline bool escape_rotation(const Mat3<S>& M, S q[4], S tol) {
+  S p[4];
+  if (!max_trace_escape(M, tol, p)) return false;
+  S n[4];
+  quat_mul(q, p, n);
+  const S inv = S(1) / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+  for (int k = 0; k < 4; ++k) q[k] = n[k] * inv;
+  return true;
+}
+
 // Rotation part of A: the unit quaternion q maximising tr(R^T A), refined in place from the
 // given start (the previous step's rotation). With M = R^T A, a body-frame rotation
 // R <- R exp([w]x) changes tr(R^T A) by g.w - w^T H w / 2 + O(|w|^3), where
 // g = (M32 - M23, M13 - M31, M21 - M12) and H = tr(M) I - sym(M); Newton's step is w = H^-1 g.
-// Near the polar rotation H is positive definite (its eigenvalues are sums of two singular
+// Near the maximiser H is positive definite (its eigenvalues are sums of two signed singular
 // values) and the iteration converges quadratically: 1-2 iterations when warm-started. Where H
 // is not positive definite (inverted or flattened elements) the step falls back to the
 // gradient step w = g / |tr M| of Müller et al. 2016 ("A robust method to extract the rotational
-// part of deformations"), which always moves towards a proper rotation: inverted elements are
-// pushed back out, never reflected. The quaternion update (1, w/2) normalised needs no sin/cos;
-// its angle error only slows convergence, it does not move the fixed point.
+// part of deformations"), which follows the element continuously from the previous step.
+// Neither step moves at a stationary point, and with H indefinite a stationary point need not be
+// the maximiser: a start 180 deg away from the answer (a body turned over) is a saddle or a
+// minimum of tr(R^T A), where g = 0 exactly and a local method stays forever, taking a rigid
+// rotation for a huge strain. So when the step vanishes while H is not positive definite, the
+// iterate jumps to the global maximiser if that is better (max_trace_escape: the top eigenvector
+// of Horn's quaternion matrix), and the iteration goes on from there; at a true (degenerate)
+// maximum, e.g. a tet flattened or mirrored exactly, it stays. The quaternion update (1, w/2)
+// normalised needs no sin/cos; its angle error only slows convergence, it does not move the
+// fixed point.
 template <class T>
 inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
   constexpr int kMaxIterations = 16;
-  const T tol = std::numeric_limits<T>::epsilon() < T(1e-10) ? T(1e-12) : T(4e-6);  // rad
+  const T tol = rotation_tolerance<T>();
   Mat3<T> R = quat_to_matrix(q);
   for (int it = 0; it < kMaxIterations; ++it) {
     const Mat3<T> M = mul_tn(R, A);
@@ -178,7 +305,8 @@ inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
     T w[3];
     // Positive definite (Sylvester): h00 > 0, leading 2x2 minor > 0, det > 0 (scaled test).
     const T scale = tr * tr * tr;
-    if (h00 > 0 && h00 * h11 - h01 * h01 > 0 && det > T(1e-6) * scale) {
+    const bool newton = h00 > 0 && h00 * h11 - h01 * h01 > 0 && det > T(1e-6) * scale;
+    if (newton) {
       const T c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
       const T inv = T(1) / det;
       w[0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv;
@@ -189,13 +317,17 @@ inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
       w[0] = g[0] * s; w[1] = g[1] * s; w[2] = g[2] * s;
     }
     const T angle2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    if (!(angle2 > tol * tol)) break;  // converged (also stops on NaN)
+    if (!(angle2 > tol * tol)) {  // stationary (also NaN)
+      if (!newton && escape_rotation(M, q, tol)) {  // a saddle or minimum: leave it
+        R = quat_to_matrix(q);
+        continue;
+      }
+      break;  // converged
+    }
     // q <- q * (1, w/2), normalised (body-frame increment).
     const T d[4] = {T(1), T(0.5) * w[0], T(0.5) * w[1], T(0.5) * w[2]};
-    const T n[4] = {q[0] * d[0] - q[1] * d[1] - q[2] * d[2] - q[3] * d[3],
-                    q[0] * d[1] + q[1] * d[0] + q[2] * d[3] - q[3] * d[2],
-                    q[0] * d[2] - q[1] * d[3] + q[2] * d[0] + q[3] * d[1],
-                    q[0] * d[3] + q[1] * d[2] - q[2] * d[1] + q[3] * d[0]};
+    T n[4];
+    quat_mul(q, d, n);
     const T inv = T(1) / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
     for (int k = 0; k < 4; ++k) q[k] = n[k] * inv;
     R = quat_to_matrix(q);

@@ -125,6 +125,95 @@ TEST(ElementForces, RigidRotationGivesZeroForceForStvkCorotationalAndSprings) {
   }
 }
 
+// A body turned over by 180 deg (issue 3 §3, "rotated_state"): from the identity warm start the
+// gradient of tr(R^T F) is zero and Newton's Hessian is indefinite, a saddle a local iteration
+// does not leave. The corotational forces must still vanish and the rotation must be found, by
+// the force pass (vector lanes) and by the energy and stress reports (scalar code).
+template <class T>
+void check_half_turns() {
+  const double axes[][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1},          {1, 1, 1},
+                            {1, 1, 0}, {0.3, -0.8, 0.5}, {-0.2, 0.1, 0.97}, {0.6, 0.01, -0.02}};
+  const bool single = sizeof(T) == 4;
+  const double ref = reference_force<T>(Model::corotational);
+  const double force_tol = single ? 2e-5 : 1e-9, quat_tol = single ? 1e-6 : 1e-12;
+  for (const auto& axis : axes) {
+    const double n = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    const double u[3] = {axis[0] / n, axis[1] / n, axis[2] / n};
+    const double w[3] = {3.141592653589793 * u[0], 3.141592653589793 * u[1], 3.141592653589793 * u[2]};
+    OneTet<T> t(kRest, Model::corotational);
+    for (int a = 0; a < 4; ++a) {
+      double p[3];
+      rotate(w, kRest[a], p);
+      for (int k = 0; k < 3; ++k) t.x[k][a] = T(p[k] + 0.3);
+    }
+    // Scalar code first (the reports refine a copy of the stored identity).
+    const double scale = double(t.c.mu) * double(t.volume[0]);  // energy of a unit strain
+    EXPECT_LT(std::fabs(t.energy()), (single ? 1e-10 : 1e-20) * scale) << "axis " << u[0] << " " << u[1] << " " << u[2];
+    double sigma[9];
+    element_cauchy_stress(t.c, Range{0, 1}, 2, sigma);
+    for (double s : sigma) EXPECT_LT(std::fabs(s), (single ? 2e-5 : 1e-9) * double(t.c.mu)) << "axis " << u[0];
+    EXPECT_EQ(double(t.rot[0][0]), 1.0);  // the reports did not touch the warm start
+    // The force pass (vector lanes): zero force, and the stored rotation is the half turn (0, u).
+    t.forces();
+    EXPECT_LT(t.max_force(), force_tol * ref) << "axis " << u[0] << " " << u[1] << " " << u[2];
+    const double dot = double(t.rot[1][0]) * u[0] + double(t.rot[2][0]) * u[1] + double(t.rot[3][0]) * u[2];
+    EXPECT_NEAR(std::fabs(dot), 1.0, quat_tol) << "axis " << u[0] << " " << u[1] << " " << u[2];
+    EXPECT_NEAR(double(t.rot[0][0]), 0.0, std::sqrt(quat_tol));
+  }
+}
+
+TEST(ElementForces, CorotationalFindsAHalfTurnFromTheIdentityWarmStartDouble) { check_half_turns<double>(); }
+TEST(ElementForces, CorotationalFindsAHalfTurnFromTheIdentityWarmStartFloat) { check_half_turns<float>(); }
+
+TEST(ElementForces, CorotationalHalfTurnPlusStrainGivesTheStrainForce) {
+  // The half turn of a stretched tet: the same forces as the stretched tet, turned.
+  const double w[3] = {0, 3.141592653589793, 0};
+  OneTet<double> plain(kRest, Model::corotational), turned(kRest, Model::corotational);
+  for (int a = 0; a < 4; ++a) {
+    const double p[3] = {1.05 * kRest[a][0], 0.98 * kRest[a][1], kRest[a][2] + 0.02 * kRest[a][0]};
+    double q[3];
+    rotate(w, p, q);
+    for (int k = 0; k < 3; ++k) {
+      plain.x[k][a] = p[k];
+      turned.x[k][a] = q[k];
+    }
+  }
+  plain.forces();
+  turned.forces();
+  for (int a = 0; a < 4; ++a) {
+    const double f[3] = {plain.force(a, 0), plain.force(a, 1), plain.force(a, 2)};
+    double g[3];
+    rotate(w, f, g);
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(turned.force(a, k), g[k], 1e-9 * plain.max_force());
+  }
+  EXPECT_NEAR(turned.energy(), plain.energy(), 1e-9 * plain.energy());
+}
+
+TEST(ElementForces, CorotationalInvertedTetGetsTheInvertibleRotation) {
+  // A tet flattened through itself (corner 3 pushed below the base): det F < 0. From the identity
+  // and from a half turn about x (a stationary point of tr(R^T F) with an indefinite Hessian,
+  // which the iteration must leave) the rotation is the one of the SVD with the smallest singular
+  // value negated, so the force pushes corner 3 back up (+z), and the energy is that of the
+  // signed stretches.
+  for (int start = 0; start < 2; ++start) {
+    const double R[4][3] = {{0, 0, 0}, {0.1, 0, 0}, {0, 0.1, 0}, {0, 0, 0.1}};
+    OneTet<double> u(R, Model::corotational);
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) u.x[k][a] = R[a][k];
+    u.x[2][3] = -0.05;  // F = diag(1, 1, -0.5)
+    if (start == 1) {   // warm start: the half turn about x (a worse, saddle-side start)
+      u.rot[0][0] = 0;
+      u.rot[1][0] = 1;
+    }
+    u.forces();
+    EXPECT_GT(u.force(3, 2), 0.0);
+    EXPECT_NEAR(std::fabs(double(u.rot[0][0])), 1.0, 1e-12) << "start " << start;  // identity
+    // Energy of S = diag(1, 1, -0.5): mu * 1.5^2 + lambda / 2 * 1.5^2.
+    const double e = double(u.volume[0]) * (u.c.mu * 2.25 + 0.5 * u.c.lambda * 2.25);
+    EXPECT_NEAR(u.energy(), e, 1e-9 * e) << "start " << start;
+  }
+}
+
 TEST(ElementForces, RigidRotationGivesSpuriousForceForLinear) {
   const double w[3] = {0, 0, 0.5235987755982988};  // 30 degrees
   OneTet<double> t(kRest, Model::linear);

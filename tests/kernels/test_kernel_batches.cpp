@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
+#include <limits>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -13,6 +15,8 @@
 
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/node_passes.hpp"
+// White box: the scalar rotation iteration and its batched twin (kernels/src/, private).
+#include "../../kernels/src/tet_batch.hpp"
 
 namespace pliant {
 namespace {
@@ -194,6 +198,114 @@ TEST(KernelBatches, CorotationalRotationsAreTheOnesTheEnergyUses) {
   for (std::size_t t = 0; t < s.nt; ++t) EXPECT_NEAR(e1[t], e2[t], 1e-12 * std::fabs(e1[t]) + 1e-300);
 }
 
+// The rotation iteration, scalar and batched, on hard cases from the identity warm start: half
+// turns about the axes and about arbitrary axes (a saddle of tr(R^T F): zero gradient, indefinite
+// Hessian), half turns of strained tets, inverted and flattened tets, NaN, and ordinary ones mixed
+// in, so that escaping lanes share batches with Newton lanes. Every lane must give the bits of the
+// scalar code, and the half turns must be found.
+template <class T>
+void check_rotation_lanes() {
+  using V = typename simd::Pack<T>::V;
+  constexpr int W = simd::Pack<T>::W;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  auto axis_angle = [](const double a[3], double angle, double R[3][3]) {
+    const double n = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    const double k[3] = {a[0] / n, a[1] / n, a[2] / n}, c = std::cos(angle), s = std::sin(angle);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const double cross = i == j ? 0 : ((i + 1) % 3 == j ? -k[3 - i - j] : k[3 - i - j]);
+        R[i][j] = (i == j ? c : 0) + (1 - c) * k[i] * k[j] + s * cross;
+      }
+  };
+  std::vector<detail::Mat3<T>> F;
+  std::vector<std::array<double, 4>> expect;  // (0, axis) for pure half turns, else empty (w = 9)
+  const double axes[][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {1, 1, 1}, {0.3, -0.8, 0.5}, {-1, 2, 0.5}};
+  for (const auto& a : axes)
+    for (int strained = 0; strained < 2; ++strained) {
+      double R[3][3];
+      axis_angle(a, 3.141592653589793, R);
+      const double S[3][3] = {{strained ? 1.1 : 1.0, strained ? 0.03 : 0.0, 0},
+                              {strained ? 0.03 : 0.0, strained ? 0.9 : 1.0, 0},
+                              {0, 0, strained ? 1.05 : 1.0}};
+      detail::Mat3<T> m;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m.m[i][j] = T(R[i][0] * S[0][j] + R[i][1] * S[1][j] + R[i][2] * S[2][j]);
+      F.push_back(m);
+      const double n = std::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+      expect.push_back(strained ? std::array<double, 4>{9, 0, 0, 0} : std::array<double, 4>{0, a[0] / n, a[1] / n, a[2] / n});
+    }
+  // Inverted (one or three stretches negative), flat (rank 2 and rank 1), zero, NaN.
+  const double diags[][3] = {{1, 1, -0.5}, {-1, 0.8, 0.9}, {-0.5, -1, -1}, {1, 1, 0}, {1, 0, 0}, {0, 0, 0}};
+  for (const auto& d : diags) {
+    double R[3][3];
+    const double a[3] = {u(rng), u(rng), u(rng)};
+    axis_angle(a, 2.0 * u(rng), R);
+    detail::Mat3<T> m;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m.m[i][j] = T(R[i][j] * d[j]);
+    F.push_back(m);
+    expect.push_back({9, 0, 0, 0});
+  }
+  detail::Mat3<T> nan_m{};
+  nan_m.m[1][2] = std::numeric_limits<T>::quiet_NaN();
+  F.push_back(nan_m);
+  expect.push_back({9, 0, 0, 0});
+  while (F.size() % W != 3 % W || F.size() < 40) {  // ordinary ones: a random rotation, small strain
+    double R[3][3];
+    const double a[3] = {u(rng), u(rng), u(rng)};
+    axis_angle(a, 3.0 * u(rng), R);
+    detail::Mat3<T> m;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) m.m[i][j] = T(R[i][j] + 0.05 * u(rng));
+    F.push_back(m);
+    expect.push_back({9, 0, 0, 0});
+  }
+  // Shuffle so that every kind lands in lanes of every position.
+  std::vector<std::size_t> order(F.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::shuffle(order.begin(), order.end(), rng);
+  // Scalar.
+  std::vector<std::array<T, 4>> qs(F.size());
+  for (std::size_t i = 0; i < F.size(); ++i) {
+    T q[4] = {1, 0, 0, 0};
+    detail::extract_rotation(F[order[i]], q);
+    for (int k = 0; k < 4; ++k) qs[i][k] = q[k];
+  }
+  // Batched, W at a time (the last batch partial, lanes past the end repeating the last one).
+  for (std::size_t b0 = 0; b0 < F.size(); b0 += W) {
+    detail::Mat3<V> A[1] = {};
+    V q[1][4] = {};
+    for (int l = 0; l < W; ++l) {
+      const std::size_t i = std::min(F.size() - 1, b0 + std::size_t(l));
+      for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 3; ++c) A[0].m[r][c][l] = F[order[i]].m[r][c];
+      q[0][0][l] = T(1);
+      q[0][1][l] = q[0][2][l] = q[0][3][l] = T(0);
+    }
+    detail::Mat3<V> R[1];
+    detail::extract_rotation_batches<T, 1>(A, q, R);
+    for (int l = 0; l < W && b0 + std::size_t(l) < F.size(); ++l) {
+      const std::size_t i = b0 + std::size_t(l);
+      for (int k = 0; k < 4; ++k) {
+        const T a = q[0][k][l], b = qs[i][k];
+        EXPECT_EQ(std::memcmp(&a, &b, sizeof(T)), 0) << "case " << order[i] << " lane " << l << " component " << k;
+      }
+    }
+  }
+  // The half turns were found (scalar; the lanes are the same bits).
+  const double tol = sizeof(T) == 4 ? 1e-6 : 1e-12;
+  for (std::size_t i = 0; i < F.size(); ++i) {
+    const auto& e = expect[order[i]];
+    if (e[0] != 0) continue;
+    const double dot = double(qs[i][1]) * e[1] + double(qs[i][2]) * e[2] + double(qs[i][3]) * e[3];
+    EXPECT_NEAR(std::fabs(dot), 1.0, tol) << "case " << order[i];
+  }
+}
+
+TEST(KernelBatches, RotationLanesGiveTheScalarBitsOnHardCasesFloat) { check_rotation_lanes<float>(); }
+TEST(KernelBatches, RotationLanesGiveTheScalarBitsOnHardCasesDouble) { check_rotation_lanes<double>(); }
+
 template <class T>
 void check_fused_node_pass(bool external) {
   Strip<T> s(300, 3);
@@ -291,6 +403,47 @@ TEST(KernelBatches, FusedPassReportsNonFiniteNodes) {
   EXPECT_TRUE(gather_integrate_symplectic_euler(g, ic, Range{0, 2}));
   v[1][1] = std::nanf("");
   EXPECT_FALSE(gather_integrate_symplectic_euler(g, ic, Range{0, 2}));
+}
+
+// A finite but runaway state (an unstable mode on its way to overflow: 1e160 m/s is finite in
+// double) counts as diverged at once: both node passes report it, in float and double.
+template <class T>
+void check_runaway(T value, bool velocity) {
+  const std::int32_t offsets[3] = {0, 0, 0};
+  T x[3][2] = {{0, 0}, {0, 0}, {0, 0}}, v[3][2] = {{0, 0}, {0, 0}, {0, 0}}, f[3][2] = {};
+  const T inv_mass[2] = {1, 1};
+  const std::uint8_t state[2] = {kNodeFree, kNodeFree};
+  GatherContext<T> g;
+  g.offsets = offsets;
+  IntegrateContext<T> ic;
+  for (int k = 0; k < 3; ++k) {
+    g.f[k] = f[k];
+    ic.x[k] = x[k];
+    ic.v[k] = v[k];
+    ic.f[k] = f[k];
+  }
+  ic.inv_mass = inv_mass;
+  ic.state = state;
+  ic.dt = T(1e-3);
+  EXPECT_TRUE(gather_integrate_symplectic_euler(g, ic, Range{0, 2}));
+  EXPECT_TRUE(integrate_symplectic_euler(ic, Range{0, 2}));
+  (velocity ? v : x)[2][1] = value;
+  EXPECT_FALSE(gather_integrate_symplectic_euler(g, ic, Range{0, 2})) << double(value);
+  EXPECT_FALSE(integrate_symplectic_euler(ic, Range{0, 2})) << double(value);
+  EXPECT_TRUE(gather_integrate_symplectic_euler(g, ic, Range{0, 1}));  // node 0 alone is fine
+}
+
+TEST(KernelBatches, NodePassesReportRunawayFiniteStates) {
+  for (bool velocity : {true, false}) {
+    check_runaway<double>(1e160, velocity);
+    check_runaway<double>(-2 * kDivergedMagnitude, velocity);
+    check_runaway<float>(1e30f, velocity);
+    check_runaway<float>(-2e15f, velocity);
+  }
+  // Just below the bound is still a state (a fixed node may also sit anywhere: not checked).
+  EXPECT_TRUE(within_bounds(0.5 * kDivergedMagnitude, -0.5 * kDivergedMagnitude));
+  EXPECT_FALSE(within_bounds(std::nan(""), 0.0));
+  EXPECT_FALSE(within_bounds(0.0, -std::numeric_limits<double>::infinity()));
 }
 
 }  // namespace

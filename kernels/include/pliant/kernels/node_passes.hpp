@@ -7,6 +7,25 @@
 
 namespace pliant {
 
+// Divergence: a free node whose position (m) or velocity (m/s) component is not finite, or
+// larger in magnitude than this, has diverged. No run in range gets near it (a body in free
+// fall for a century reaches 3e10 m/s, and light does 3e8), while an unstable mode grows by a
+// constant factor per step, so it passes 1e15 within a few hundred steps of leaving physical
+// magnitudes: the run is stopped then (DivergenceError, exit code 3) instead of going on with
+// garbage until inf/NaN (float overflows at 3e38, double at 1e308; a state at 1e160 m/s is
+// finite). In float, 1e15 m is still 10 orders of magnitude below overflow of the squared
+// values the energies and strains use.
+inline constexpr double kDivergedMagnitude = 1e15;
+
+// True when a free node's new position or velocity component counts as diverged (see above).
+// Written as one comparison each, so that NaN (which fails every comparison) counts too and
+// the hot loops only accumulate the flag (no branch).
+template <class T>
+inline bool within_bounds(T x, T v) {
+  const T b = T(kDivergedMagnitude);
+  return (x <= b) & (x >= -b) & (v <= b) & (v >= -b);
+}
+
 // Node states (Level::state). Only free nodes are integrated.
 enum NodeStateCode : std::uint8_t { kNodeFree = 0, kNodeFixed = 1, kNodeGhost = 2, kNodeInactive = 3 };
 
@@ -37,7 +56,8 @@ struct IntegrateContext {
 };
 
 // v <- v + dt (f/m + g - alpha v); x <- x + dt v, on free nodes. Returns false if any free
-// node's new position or velocity is not finite (the caller then locates it).
+// node's new position or velocity is not finite or beyond kDivergedMagnitude (within_bounds;
+// the caller then locates it).
 template <class T>
 bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range nodes);
 
