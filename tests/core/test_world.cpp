@@ -81,12 +81,38 @@ TEST(StableStep, AutoPicksTheCourantBound) {
   w.add_body(b);
   const double nu = b.material.poisson, E = b.material.young;
   const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
-  const double h = w.level<double>(0).min_altitude;
-  const double bound = 0.5 * h * std::sqrt(b.material.density / (lambda + 2 * mu));
+  const Level<double>& L = w.level<double>(0);
+  const double h = L.min_altitude;
+  // The classic Courant bound, and the measured highest mode (stable_step.cpp): the step is
+  // built for the higher frequency of the two, never above the classic bound.
+  const double classic = 0.5 * h * std::sqrt(b.material.density / (lambda + 2 * mu));
   EXPECT_GT(h, 0.0);
-  EXPECT_NEAR(w.stable_dt(), bound, 1e-12 * bound);
-  EXPECT_LE(w.dt(), bound * (1 + 1e-12));
+  EXPECT_NEAR(L.omega_geometric, 1.0 / classic, 1e-12 / classic);  // 2 c_p / h_min = C / classic
+  EXPECT_GT(L.omega_measured, 0.5 * L.omega_geometric);
+  EXPECT_EQ(L.omega_max, std::max(L.omega_geometric, L.omega_measured / 0.98));
+  EXPECT_NEAR(w.stable_dt(), 0.5 * 2 / L.omega_max, 1e-12 * classic);
+  EXPECT_LE(w.stable_dt(), classic * (1 + 1e-12));
+  EXPECT_LE(w.dt(), w.stable_dt());
   EXPECT_EQ(w.substeps(), 1);
+}
+
+TEST(StableStep, MeasuredModeDoesNotDependOnTheThreadCount) {
+  for (ForceModel m : {ForceModel::corotational, ForceModel::springs})
+    for (Precision p : {Precision::float32, Precision::float64}) {
+      double first = 0;
+      for (int threads : {1, 2, 4}) {
+        WorldDef wd;
+        wd.threads = threads;
+        wd.precision = p;
+        World w(wd);
+        BodyDef b = beam_def(m);
+        b.mesh.cells = {40, 6, 6};  // 8640 tets: several tasks per pass
+        w.add_body(b);
+        if (threads == 1) first = w.stable_dt();
+        EXPECT_EQ(w.stable_dt(), first) << to_string(m) << " " << threads << " threads";
+      }
+      EXPECT_GT(first, 0.0);
+    }
 }
 
 TEST(StableStep, DampingTightensTheBound) {
@@ -152,6 +178,29 @@ TEST(Divergence, NonFiniteStateStopsAtOnceNamingBodyLevelStepAndNode) {
     EXPECT_THAT(e.what(), HasSubstr("level 0"));
     EXPECT_THAT(e.what(), HasSubstr("step 1"));
     EXPECT_THAT(e.what(), HasSubstr("node"));
+  }
+}
+
+TEST(Divergence, RunawayFiniteStateStopsAtOnce) {
+  // 1e200 m/s is finite in double: it must not run on (energies() would report inf later).
+  for (Precision p : {Precision::float64, Precision::float32}) {
+    WorldDef wd;
+    wd.precision = p;
+    World w(wd);
+    w.add_body(beam_def(ForceModel::stvk));
+    w.step();
+    if (p == Precision::float64)
+      w.level<double>(0).v[1][37] = 1e200;
+    else
+      w.level<float>(0).v[1][37] = 1e30f;
+    try {
+      w.step();
+      FAIL() << "expected DivergenceError";
+    } catch (const DivergenceError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("step 1"));
+      EXPECT_THAT(e.what(), HasSubstr("node"));
+      EXPECT_THAT(e.what(), HasSubstr("beyond 1e+15"));
+    }
   }
 }
 

@@ -69,6 +69,34 @@ TEST(EnergyMonitor, EnergyFromNowhereIsCaught) {
   EXPECT_THAT(m.why(), HasSubstr("energy unbounded"));
 }
 
+TEST(EnergyMonitor, StagnantFloatPositionsAreNotAnEnergyGain) {
+  // A free body falling in float with a tiny step: dt v stays below half the float spacing of
+  // the coordinates (0.15 m: 7.5e-9 m), so x + dt v rounds back to x. The velocities gain the
+  // energy gravity gives, the positions (and the potential computed from them) do not move: the
+  // criterion must count the work of gravity from the velocities (docs/stress.md, scene 14874).
+  WorldDef wd;
+  wd.precision = Precision::float32;
+  wd.time_step.dt = 1e-7;
+  World w(wd);
+  BodyDef b = beam(ForceModel::corotational);
+  b.fixed.clear();
+  b.material.young = 1e3;
+  b.mesh.min = {0.1, 0.1, 0.1};
+  b.mesh.max = {0.2, 0.12, 0.12};
+  w.add_body(b);
+  EnergyMonitor m;
+  m.start(w);
+  for (int i = 1; i <= 1000; ++i) {
+    w.step();
+    m.after_step(w);
+    if (i % 20 == 0) ASSERT_TRUE(m.sample(w)) << "step " << i << ": " << m.why();
+  }
+  EXPECT_TRUE(m.finish()) << m.why();
+  const Energies e = w.energies();
+  EXPECT_GT(e.kinetic, 1e-8);                        // 1/2 M (g t)^2 = 1.9e-8 J, t = 1e-4 s
+  EXPECT_LT(std::abs(e.potential), 0.1 * e.kinetic);  // the positions barely moved
+}
+
 TEST(Cells, OutcomesFollowTheTimeStep) {
   const CellResult s = run_cell(cell(ForceModel::corotational, 0.9));
   EXPECT_EQ(s.outcome, Outcome::stable) << s.message;
@@ -99,7 +127,9 @@ TEST(Cells, EveryScenarioBuildsAndRunsAtTheBound) {
 // The ctest subset of `pliant stability`: the corners of the matrix (E 1e2 and 1e9, nu 0 and
 // 0.499, dt 0.9x / 1.0x / 1.2x refused / 1.2x sub-stepped, every model and precision) and every
 // extreme scenario at E = 1e6, nu = 0.49, 0.9x. Nothing may diverge at 0.9x the bound except the
-// cells of the engine bugs known_issue() names (reported; see docs/stability.md).
+// cells known_issue() names (the collapsing E = 100 Pa cantilever of stvk and corotational,
+// reported; see docs/stability.md). `rotated_state` corotational is in the subset: it diverged
+// while the rotation extraction stopped at the 180-degree saddle.
 TEST(Matrix, SubsetHasNoUnexpectedOutcome) {
   MatrixOptions o;
   o.full = false;
@@ -121,6 +151,25 @@ TEST(Matrix, SubsetHasNoUnexpectedOutcome) {
   EXPECT_EQ(counts[2], 32);  // every 1.2x cell without sub-stepping, and only those
   for (const auto& r : results)  // sub-stepped cells are clamped (or, above 0.9x, may diverge)
     if (r.spec.substep) EXPECT_TRUE(r.outcome == Outcome::clamped || r.outcome == Outcome::diverged) << r.spec.label();
+}
+
+TEST(Stress, TheScenesOnceOpenPass) {
+  // The three scenes left open by the 30-minute run of docs/stress.md (energy 12-15x the input):
+  // two were the half-step kinetic energy at a turning point, one float positions stagnating.
+  StressOptions o;
+  o.threads = 2;
+  o.mesh_dirs = {PLIANT_SHARED_MESHES};
+  const std::pair<std::uint64_t, const char*> scenes[] = {
+      {0x7fcd6356b52f6d40ull, "msh4_cube.msh"}, {0xc52140097f6b5b63ull, "box 0.066x0.083x0.090"},
+      {0xe111f992aded751eull, "raptorTetra_8418.vtu"}};
+  for (const auto& [seed, what] : scenes) {
+    const StressScene s = run_stress_scene(seed, 0, o);
+    if (s.description.rfind(what, 0) != 0) {  // another mesh set: another scene
+      fmt::print("skipped {:#x}: {}\n", seed, s.description);
+      continue;
+    }
+    EXPECT_EQ(s.status, "ok") << s.description << ": " << s.message;
+  }
 }
 
 TEST(Stress, ShortRunIsCleanAndReproducible) {

@@ -44,7 +44,12 @@ struct Level {
   T mass_damping = 0;                         // 1/s
   T young = 0, stiffness_damping = 0;         // Pa, s (springs)
   double min_altitude = 0;                    // m, smallest tet altitude at rest
-  double stable_dt = 0;                       // s, Courant bound of this level
+  double omega_geometric = 0;                 // rad/s, 2 c_p / h_min (the classic Courant estimate)
+  double omega_measured = 0;                  // rad/s, highest frequency of M^-1 K at rest (Lanczos, from below)
+  double omega_max = 0;                       // rad/s, the frequency stable_dt is built for:
+                                              //   max(omega_geometric, omega_measured / 0.98)
+  double stable_dt = 0;                       // s, stable step of this level: courant x (2 / omega_max),
+                                              //   tightened by damping (docs/architecture.md)
   int period = 1;                             // in fine ticks (multiresolution; 1 for L = 0)
 };
 

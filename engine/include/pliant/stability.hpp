@@ -28,8 +28,14 @@ const char* to_string(Outcome o);
 
 // Energy boundedness, the criterion both harnesses use. Samples are taken every few steps:
 //   M(t) = K(t) + U(t)              kinetic + elastic energy (J)
-//   S(t) = K(0) + U(0) + |P(t) - P(0)| + W(t) + Eg
-// where P is the potential of gravity and constant loads (World::energies().potential), W the
+//   S(t) = K(0) + U(0) + max(|P(t) - P(0)|, |L(t)|) + W(t) + Eg
+// where K is World::energies().kinetic, the kinetic energy of the velocity at the time of the
+// positions (time-centred: the stored velocity is half a step off, and paired with the
+// positions it swings by (omega dt / 2) of each mode's energy, which made bodies released from
+// rest fail at the turning points of their motion; see pliant/world.hpp, Energies), P the
+// potential of gravity and constant loads (World::energies().potential), L their work on the
+// free nodes from the velocities (sum over steps of dt f . v: equal to -(P(t) - P(0)) except
+// where float positions stagnate, see energy_monitor.cpp), W the
 // accumulated |work| of the prescribed and fixed nodes on the body (sum over steps of
 // |f_n . dx_n| on non-free nodes, an upper bound of the energy they inject) plus the kinetic
 // energy they carry, and Eg a floor so that a body starting at rest with no load has a non-zero
@@ -41,7 +47,9 @@ const char* to_string(Outcome o);
 //   (b) max K over the second half <= kGrowthFactor * max K over the first half + S_end
 //       (kinetic energy does not grow exponentially, even while still below (a)).
 // A symplectic Euler run at a stable step conserves a modified energy, so M stays within a few
-// per cent of K(0)+U(0)+work; an unstable step grows M by orders of magnitude within tens of steps.
+// per cent of K(0)+U(0)+work (for a linear system M - (K(0)+U(0)+work) is (dt^2/8)(|a(t)|^2 -
+// |a(0)|^2)_M, at most a third of M at Courant number 0.5); an unstable step grows M by orders of
+// magnitude within tens of steps.
 inline constexpr double kBoundFactor = 10.0;
 inline constexpr double kGrowthFactor = 100.0;
 
@@ -49,7 +57,8 @@ class EnergyMonitor {
  public:
   // Records the initial state of `world` (call before the first step).
   void start(const World& world);
-  // Call after every step: accumulates the work of the non-free nodes (cheap, O(nodes)).
+  // Call after every step: accumulates the work of the non-free nodes and of gravity and loads
+  // on the free ones (cheap, O(nodes)).
   void after_step(const World& world);
   // Call every few steps (and at the end): samples K, U, P and checks (a). Returns false (with
   // why()) on a non-finite or unbounded energy.
@@ -64,7 +73,7 @@ class EnergyMonitor {
 
  private:
   std::vector<std::vector<double>> last_x_;  // per body: previous positions of non-free nodes
-  double m0_ = 0, p0_ = 0, floor_ = 0, work_ = 0, peak_ratio_ = 0, growth_ = 0, last_scale_ = 0;
+  double m0_ = 0, p0_ = 0, floor_ = 0, work_ = 0, load_work_ = 0, peak_ratio_ = 0, growth_ = 0, last_scale_ = 0;
   std::vector<double> kinetic_;
   std::string why_;
 };

@@ -1,6 +1,7 @@
 // From a validated TetMesh and a BodyDef to a ready-to-step Level: SoA arrays, rest gradients,
 // lumped masses, the node->tet incidence (CSR, sorted for a fixed gather order), boundary
-// triangles, node states from fixed/prescribed regions, constant loads and the stable step.
+// triangles, node states from fixed/prescribed regions, constant loads and the stable step
+// (stable_step.cpp).
 #include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
@@ -105,27 +106,9 @@ Vec3d MotionState::offset_at(double time) const {
           a.offset[2] + s * (b.offset[2] - a.offset[2])};
 }
 
-double courant_time_step(double h_min, const MaterialDef& m, ForceModel model, double courant) {
-  const Lame l = lame(m);
-  const double modulus = l.lambda + 2 * l.mu;  // P-wave modulus (Pa)
-  const double cp = std::sqrt(modulus / m.density);  // m/s
-  const double dt0 = h_min / cp;                      // s, undamped critical step of the stiffest element
-  const double omega_max = 2.0 / dt0;                 // rad/s
-  // Damping ratio of the highest mode: viscous stress acts like a Rayleigh stiffness factor
-  // beta = (phi + 2 psi) / (lambda + 2 mu); mass damping contributes alpha / (2 omega).
-  double phi = m.damping.stiffness * l.lambda, psi = m.damping.stiffness * l.mu;
-  if (m.damping.bulk_viscosity) phi = *m.damping.bulk_viscosity;
-  if (m.damping.shear_viscosity) psi = *m.damping.shear_viscosity;
-  double beta = (phi + 2 * psi) / modulus;
-  if (model == ForceModel::springs) beta = m.damping.stiffness;
-  const double zeta = 0.5 * beta * omega_max + m.damping.mass / (2 * omega_max);
-  // Critical step of a damped oscillator under central differences: (2/omega)(sqrt(1+z^2) - z).
-  return courant * dt0 * (std::sqrt(1 + zeta * zeta) - zeta);
-}
-
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant,
-                     std::vector<MotionState>& motions) {
+Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
+                     Executor& exec) {
   check_material(def.material, def.name);
   Level<T> L;
   const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
@@ -221,11 +204,18 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant,
   L.young = T(def.material.young);
   L.stiffness_damping = T(d.stiffness);
   L.min_altitude = h_min;
-  L.stable_dt = courant_time_step(h_min, def.material, def.model, courant);
+  // The step: for the higher of the geometric frequency 2 c_p / h_min and the measured one
+  // (stable_step.cpp; a Ritz value approaches from below, hence the margin).
+  L.omega_geometric = geometric_frequency(h_min, def.material);
+  L.omega_measured = highest_frequency(exec, L, kFrequencyIterations);
+  L.omega_max = std::max(L.omega_geometric, L.omega_measured / kFrequencyMargin);
+  L.stable_dt = stable_step_for(L.omega_max, def.material, def.model, courant);
   return L;
 }
 
-template Level<float> build_level<float>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&);
-template Level<double> build_level<double>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&);
+template Level<float> build_level<float>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
+                                         Executor&);
+template Level<double> build_level<double>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
+                                           Executor&);
 
 }  // namespace pliant::detail

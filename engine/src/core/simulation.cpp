@@ -49,14 +49,17 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
         std::size_t bad = 0;
         for (std::size_t n = 0; n < L.node_count; ++n) {
           bool ok = true;
-          for (int k = 0; k < 3; ++k) ok &= std::isfinite(L.x[k][n]) && std::isfinite(L.v[k][n]);
+          if (L.state[n] != kNodeFree) continue;
+          for (int k = 0; k < 3; ++k) ok &= within_bounds(L.x[k][n], L.v[k][n]);
           if (!ok) {
             bad = n;
             break;
           }
         }
-        where = fmt::format("body '{}', level {}, step {} (t = {:.6g} s): node {} has a non-finite position or velocity",
-                            body.def.name, l, step_index, t + dt, bad);
+        where = fmt::format(
+            "body '{}', level {}, step {} (t = {:.6g} s): node {} has a non-finite position or velocity, or one beyond "
+            "{:g} (m, m/s)",
+            body.def.name, l, step_index, t + dt, bad, kDivergedMagnitude);
         return false;
       }
 
@@ -88,6 +91,55 @@ void Simulation<T>::elastic_energies(Executor& exec, double& elastic) const {
       exec.parallel_for(L.tet_count, kTetGrain, [&](Range r) { pass(ec, r, out); });
       for (std::size_t t = 0; t < L.tet_count; ++t) elastic += scratch[t];  // fixed order
     }
+}
+
+template <class T>
+double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) const {
+  double kinetic = 0;
+  stored = 0;
+  for (const SimBody<T>& body : bodies)
+    for (const Level<T>& L : body.levels) {
+      // Forces of the current state, as the next step's element pass and gather will compute
+      // them, into scratch arrays (allocated here: a report, not the hot path).
+      ElementContext<T> ec = element_context(L);
+      AlignedVector<T> corner[12], rotation[4], f[3];
+      for (int q = 0; q < 12; ++q) {
+        corner[q].assign(L.tet_count, T(0));
+        ec.corner_force[q] = corner[q].data();
+      }
+      if (!L.rotation[0].empty())
+        for (int k = 0; k < 4; ++k) {
+          rotation[k].assign(L.rotation[k].begin(), L.rotation[k].end());
+          ec.rotation[k] = rotation[k].data();
+        }
+      const ElementPass<T> pass = force_kernel<T>(L.model);
+      exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
+      GatherContext<T> gc;
+      gc.offsets = L.incidence_offsets.data();
+      gc.incidence = L.incidence.data();
+      for (int q = 0; q < 12; ++q) gc.corner_force[q] = corner[q].data();
+      for (int k = 0; k < 3; ++k) {
+        f[k].assign(L.node_count, T(0));
+        gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();
+        gc.f[k] = f[k].data();
+      }
+      exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { gather_forces(gc, r); });
+      for (std::size_t n = 0; n < L.node_count; ++n) {  // fixed order
+        const double m = double(L.mass[n]);
+        const bool free = L.state[n] == kNodeFree;
+        double vc2 = 0, v2 = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double v = double(L.v[k][n]);
+          const double a = double(f[k][n]) * double(L.inv_mass[n]) + double(gravity[k]) - double(L.mass_damping) * v;
+          const double vc = free ? v + 0.5 * h * a : v;
+          vc2 += vc * vc;
+          v2 += v * v;
+        }
+        kinetic += 0.5 * m * vc2;
+        stored += 0.5 * m * v2;
+      }
+    }
+  return kinetic;
 }
 
 template class Simulation<float>;

@@ -36,12 +36,30 @@ struct ProbeState {
 };
 
 // Builds a level from a validated mesh: SoA arrays, rest geometry, masses, incidence, boundary,
-// node states from the body's regions, stable step. Throws InputError on bad regions or material.
+// node states from the body's regions, stable step (measured with exec's threads; the result
+// does not depend on their number). Throws InputError on bad regions or material.
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant,
-                     std::vector<MotionState>& motions);
+Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
+                     Executor& exec);
 
-// Courant bound (s) of a level of min altitude h (m) for a material, tightened by damping.
+// ---- the stable step (stable_step.cpp) ----
+// 2 c_p / h_min (rad/s): the highest frequency of a mesh of smallest altitude h_min (m) as the
+// classic Courant estimate has it (not a bound: Kuhn meshes go 22% above it).
+double geometric_frequency(double h_min, const MaterialDef& material);
+// Highest angular frequency (rad/s) of the level's linearised undamped dynamics at rest, over
+// its free nodes: sqrt of the largest Ritz value of `iterations` Lanczos steps on M^-1 K, with
+// K from the level's model (linear elasticity for linear/stvk/corotational, the springs' own).
+// From below: a lower bound of the true value, within 4e-4 at 30 iterations on the meshes
+// measured (tests/core/test_physics_validation.cpp). Deterministic (fixed start, fixed-order
+// sums). Uses the level's corner-force arrays as scratch (zeroed on return). 0 without free nodes.
+template <class T>
+double highest_frequency(Executor& exec, Level<T>& level, int iterations);
+inline constexpr int kFrequencyIterations = 30;
+inline constexpr double kFrequencyMargin = 0.98;  // the step is built for measured / margin
+// Stable step (s) of the explicit integrator for highest frequency omega_max (rad/s), times the
+// Courant number, tightened by damping: courant (2 / omega) (sqrt(1 + zeta^2) - zeta).
+double stable_step_for(double omega_max, const MaterialDef& material, ForceModel model, double courant);
+// stable_step_for(geometric_frequency(h_min)): the classic Courant bound, tightened by damping.
 double courant_time_step(double h_min, const MaterialDef& material, ForceModel model, double courant);
 
 template <class T>
@@ -56,6 +74,13 @@ class Simulation {
   bool step(Executor& exec, double t, double dt, std::string& where, std::int64_t step_index);
 
   void elastic_energies(Executor& exec, double& elastic) const;
+  // Kinetic energy (J) at the time of the positions: 1/2 sum m |v_c|^2 with, on free nodes,
+  // v_c = v + (h/2) a(x, v), the mean of the stored velocity (v_{n+1/2}: the one that moved x_n to
+  // x_{n+1}) and the one the next sub-step of size h will give (v_{n+3/2}); a is the force of the
+  // current state (element pass on scratch copies, so measuring never changes the trajectory)
+  // over the mass, plus gravity, minus mass damping. Non-free nodes: their stored velocity.
+  // `stored` receives 1/2 sum m |v|^2 of the stored velocities.
+  double centred_kinetic(Executor& exec, double h, double& stored) const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
 };
 

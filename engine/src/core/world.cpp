@@ -172,7 +172,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
     b.def = def;
-    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions));
+    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
     s.bodies.push_back(std::move(b));
     return BodyId(s.bodies.size() - 1);
   });
@@ -242,6 +242,7 @@ std::int64_t World::steps() const { return impl_->steps; }
 double World::dt() const { return impl_->dt; }
 double World::stable_dt() const { return impl_->stable_dt; }
 int World::substeps() const { return impl_->substeps; }
+Vec3d World::gravity() const { return impl_->def.gravity; }
 Precision World::precision() const { return impl_->def.precision; }
 int World::threads() const { return impl_->exec.threads(); }
 
@@ -337,20 +338,19 @@ Vec3d World::probe_position(int p) const {
 
 Energies World::energies() const {
   Energies e;
+  const double h = impl_->dt / impl_->substeps;  // the (sub-)step the integrator takes
   impl_->visit([&](auto& s) {
     s.elastic_energies(impl_->exec, e.elastic);
+    e.kinetic = s.centred_kinetic(impl_->exec, h, e.kinetic_stored);
     for (const auto& b : s.bodies)
       for (const auto& L : b.levels)
         for (std::size_t n = 0; n < L.node_count; ++n) {
           const double m = double(L.mass[n]);
-          double v2 = 0;
           for (int k = 0; k < 3; ++k) {
-            const double v = double(L.v[k][n]), u = double(L.x[k][n]) - double(L.X[k][n]);
-            v2 += v * v;
+            const double u = double(L.x[k][n]) - double(L.X[k][n]);
             e.potential -= m * double(s.gravity[k]) * u;
             if (!L.external[k].empty()) e.potential -= double(L.external[k][n]) * u;
           }
-          e.kinetic += 0.5 * m * v2;
         }
   });
   return e;

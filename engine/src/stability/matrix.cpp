@@ -265,16 +265,15 @@ CellResult run_cell(const CellSpec& spec, int threads) {
 }
 
 const char* known_issue(const CellSpec& c) {
-  if (c.model == ForceModel::corotational && c.scenario == "rotated_state")
-    return "extract_rotation (kernels/src/tet_local.hpp) warm-started 180 deg away stops at a saddle of tr(R^T F) "
-           "(gradient 0, H = tr(M) I - sym(M) not positive definite): R = I instead of the polar rotation, so a rigid "
-           "rotation gets a huge spurious strain and the forces are not conservative";
   if (c.scenario == "cantilever" && c.young <= 1e2 &&
       (c.model == ForceModel::corotational || c.model == ForceModel::stvk))
-    return "the beam collapses under its own weight (rho g L / E = 10): about half of the tets invert; stvk has no "
-           "inversion handling and stiffens without bound in stretch (the rest-state bound no longer holds), "
-           "corotational's rotation extraction stays on a saddle branch for inverted tets (not the maximising "
-           "rotation), so its forces stop being conservative";
+    return "outside the range of the rest-state step: the beam cannot carry its own weight (rho g L / E = 10) and "
+           "collapses through itself (stretches up to 8x, half of the tets inverted). The stable step is computed at "
+           "rest, but stvk stiffens without bound in stretch (uniaxial tangent modulus (3 s^2 - 1)/2 E: 96 E at s = 8) "
+           "and corotational's tangent stiffness has terms stress / (s_i + s_j) that grow without bound as an "
+           "inverted tet's two smallest signed stretches cancel (down to 0.01 here), so the highest frequency of "
+           "the collapsed state is many times that of the rest state. The same cells are stable at 0.1x and 0.25x "
+           "the bound; a step that follows the deformation (adaptive sub-stepping) would be the fix";
   return nullptr;
 }
 
@@ -374,27 +373,32 @@ std::string markdown_report(const std::vector<CellResult>& res, const MatrixOpti
                      n, c["stable"], c["clamped"], c["refused"], c["diverged"], c["bug"]);
   }
   s += R"(
-**Findings.** No cell diverges at dt <= 0.9x the bound because of the bound: for every model
-(springs included) and every nu up to 0.499, the cantilever and the extremes at usual stiffness
-are stable up to 1.0x, so `courant_time_step` is unchanged. The divergences at dt <= 0.9x all
-come from two engine issues outside the time step (listed under Divergences with their cause):
-(1) `extract_rotation` (kernels/src/tet_local.hpp) warm-started 180 deg away from the polar
-rotation stops at a saddle of tr(R^T F) (gradient zero, Hessian not positive definite), so the
-corotational model sees a rigid 180 deg rotation as a huge strain and its forces stop being
-conservative (`rotated_state`, nu >= 0.45; with the rotations warm-started at the right
-quaternion the same cell is stable, peak 1.07); the same branch problem for inverted tets;
-(2) the E = 100 Pa cantilever collapses under its own weight (rho g L / E = 10, about half of the
-tets invert): stvk (no inversion handling, stiffening without bound in stretch, so the rest-state
-bound stops holding) and corotational (issue 1 on inverted tets) gain energy. Divergences above
-0.9x (at 1.0x, or sub-stepped) are of the same two kinds plus stvk at large stretch
-(`inverted_state`, `spin_100` at E = 1e4).
+**Findings.** The rest-state bound holds: for every model (springs included), every nu up to
+0.499 and every scenario, no cell diverges at dt <= 0.9x the bound except the E = 100 Pa
+cantilever of stvk and corotational (listed under Divergences with the cause): a beam that cannot
+carry its own weight (rho g L / E = 10) collapses through itself, stretching tets up to 8x and
+inverting half of them, where stvk (stiffening without bound in stretch) and corotational
+(tangent stiffness growing without bound as an inverted tet's two smallest signed stretches
+cancel) have modes many times faster than at rest. The same cells are stable at 0.1x and 0.25x
+the bound: they need a step that follows the deformation, which the engine does not have.
+Fixed since the previous run: (1) `extract_rotation` (kernels/src/tet_local.hpp) no longer stops
+at the saddle of tr(R^T F) 180 deg away from the warm start (`rotated_state`): where Newton's
+Hessian is not positive definite it jumps to the global maximiser (Horn's quaternion matrix), which
+for inverted tets is the invertible-FEM rotation; (2) the step is built for the highest mode
+measured at load (Lanczos on M^-1 K), not for 2 c_p / h_min, which Kuhn meshes exceed by up to
+22%; (3) a finite state beyond 1e15 m or m/s is a divergence, reported at once (it used to run on
+to ~1e160 and to inf energies); (4) the kinetic energy of the criterion is time-centred.
+Divergences above 0.9x (tolerated) are of the same kind: the collapsing E = 100 Pa cantilever at 1x
+or sub-stepped (springs too, once, at 1x), and `inverted_state` (tets inside out at the start)
+for corotational at nu = 0.49 and 1x.
 
 ## What a cell is
 
 Every cell is built in code: a beam 0.1 x 0.025 x 0.025 m (6 x 2 x 2 cells, 6 tets each: 144 tets,
 63 nodes), density 1000 kg/m^3, no damping, Courant number 0.5. The bound is the engine's
-`World::stable_dt()` (C h_min sqrt(rho/(lambda+2mu)), see `courant_time_step`), measured on a
-probe world with the same mesh and material; the cell then sets `TimeStepDef::dt = factor x bound`.
+`World::stable_dt()` (C x 2 / omega_max, omega_max the larger of 2 c_p / h_min and the highest mode
+of M^-1 K measured at load, see engine/src/core/stable_step.cpp and docs/architecture.md), measured
+on a probe world with the same mesh and material; the cell then sets `TimeStepDef::dt = factor x bound`.
 Every free node gets a random initial velocity of amplitude 1e-3 c_p (c_p the P-wave speed) so that
 every mode, the highest above all, is excited from the first step.
 
@@ -420,15 +424,18 @@ every mode, the highest above all, is excited from the first step.
   `substeps()` sub-steps (reported) and the run was then stable.
 - **refused**: dt = 1.2x the bound without sub-stepping: `add_body` threw InputError naming the
   bound, before any step.
-- **diverged**: a DivergenceError (World checks every free node after each sub-step and reports
-  body, level, step and node at once: `pliant run` exits 3, no NaN reaches an output), or an
+- **diverged**: a DivergenceError (World checks every free node after each sub-step, for a value
+  that is not finite or beyond 1e15 m or m/s, and reports body, level, step and node at once:
+  `pliant run` exits 3, no NaN or runaway value reaches an output), or an
   unbounded energy, or a non-finite energy without DivergenceError. A divergence at dt <= 0.9x the
   bound is a bug; `pliant stability` then exits 3.
 
-**Energy bounded** (`EnergyMonitor`, sampled every 10 steps): with M = kinetic + elastic energy,
-P the potential of gravity and loads, W the accumulated |f . dx| of fixed and prescribed nodes plus
-the kinetic energy they carry, and S(t) = M(0) + |P(t) - P(0)| + W(t) + a floor (1e-9 m g D plus
-the energy 1/2 (lambda + 2 mu) e^2 V of a strain e = 1e-4 in float, 1e-7 in double: rounding noise):
+**Energy bounded** (`EnergyMonitor`, sampled every 10 steps): with M = kinetic + elastic energy
+(the kinetic energy time-centred: of the velocity at the time of the positions, see
+`Energies` in pliant/world.hpp), P the potential of gravity and loads, L their work on the free
+nodes from the velocities, W the accumulated |f . dx| of fixed and prescribed nodes plus the
+kinetic energy they carry, and S(t) = M(0) + max(|P(t) - P(0)|, |L(t)|) + W(t) + a floor (1e-9 m g D
+plus the energy 1/2 (lambda + 2 mu) e^2 V of a strain e = 1e-4 in float, 1e-7 in double: rounding noise):
 (a) M(t) <= 10 S(t) at every sample, and (b) the largest kinetic energy over the second half of
 the run is at most 100x the largest over the first half (+ S at the end: a driven body may
 speed up, but not beyond all the energy it was given). `peak` in the tables is
