@@ -1,7 +1,8 @@
 // `pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|finest|FILE] [--out DIR]`:
 // runs a scene over the grid of settings, measures a quantity per run (the reference file beside
 // the scene, SCENE.reference.json, says which and gives its analytic value), and writes
-// DIR/study.csv and DIR/study.md with the error, the cost and the Pareto front. See docs/accuracy.md.
+// DIR/study.csv and DIR/study.md with the error, the cost and the Pareto front, and draws them:
+// DIR/pareto.png (cost against error) and DIR/convergence.png (error against the mesh). See docs/accuracy.md.
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 
@@ -9,6 +10,7 @@
 
 #include "commands.hpp"
 #include "pliant/error.hpp"
+#include "pliant/raster/study_plots.hpp"
 #include "pliant/study.hpp"
 
 namespace pliant::cli {
@@ -34,7 +36,8 @@ Command add_study_command(CLI::App& app) {
   sub->add_option("--measure", o->measure,
                   "One measure as JSON instead of the reference file's, e.g. "
                   "'{\"kind\":\"probe_final\",\"probe\":\"tip\",\"axis\":\"z\"}' (with --reference VALUE|finest)");
-  sub->add_option("--out,-o", o->out, "Output folder (study.csv, study.md)")->capture_default_str();
+  sub->add_option("--out,-o", o->out, "Output folder (study.csv, study.md, pareto.png, convergence.png)")
+      ->capture_default_str();
   sub->add_option("--threads", o->threads, "Worker threads per run (0: all cores); runs go one after the other")
       ->capture_default_str();
   sub->add_option("--cost", o->cost, "Cost of the Pareto front: wall (s per simulated s) or tet-steps")
@@ -57,7 +60,9 @@ Command add_study_command(CLI::App& app) {
                 fmt::print(stderr, "{}\n", line);
                 std::fflush(stderr);
               };
-            const study::StudyResult r = study::run_study(so);
+            study::StudyResult r = study::run_study(so);
+            const raster::StudyPlotFiles plots = raster::write_study_plots(r, so.out_dir);
+            r.files.insert(r.files.end(), plots.files.begin(), plots.files.end());
             int front = 0, bad = 0;
             for (const auto& run : r.runs) {
               front += run.pareto;
@@ -66,6 +71,7 @@ Command add_study_command(CLI::App& app) {
             if (!o->quiet) {
               fmt::print("{} runs in {:.1f} s, {} on the Pareto front; results in {}\n", r.runs.size(), r.wall_total_s,
                          front, fmt::join(r.files, ", "));
+              for (const std::string& note : plots.notes) fmt::print(stderr, "pliant: note: {}\n", note);
             }
             return bad ? 2 : 0;
           }};

@@ -3,6 +3,7 @@
 #include "pliant/raster/plot.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -177,13 +178,36 @@ Image render_plot(const Plot& plot) {
   for (double v : ty) ylab_w = std::max(ylab_w, text_width(format_number(v, 3), s));
   const int left = 8 * s + text_height(s) + 6 * s + ylab_w + 6 * s;
   const int top = (plot.title.empty() ? 8 * s : 20 * s);
-  const int right = 14 * s;
-  const int bottom = 6 * s + text_height(s) + 6 * s + text_height(s) + 8 * s;
+  // Room on the right for half of the last x tick label, which is centred on the plot's edge.
+  const int right = std::max(14 * s, (tx.empty() ? 0 : text_width(format_number(tx.back(), 3), s) / 2) + 4 * s);
+  // The legend's entries, measured first: below the plot they take room from it.
+  std::vector<std::size_t> listed;
+  int lw = 0;
+  for (std::size_t i = 0; plot.legend && i < plot.series.size(); ++i)
+    if (!plot.series[i].label.empty()) {
+      listed.push_back(i);
+      lw = std::max(lw, text_width(plot.series[i].label, s));
+    }
+  const int row = text_height(s) + 4 * s, sample = 22 * s;
+  const int entry_w = 6 * s + sample + 6 * s + lw + 8 * s;
+  const bool below = !listed.empty() && plot.legend_place == LegendPlace::below;
+  int legend_cols = 1, legend_h = 0;
+  if (below) {
+    legend_cols = std::clamp((W - 16 * s) / entry_w, 1, int(listed.size()));
+    legend_h = (int(listed.size()) + legend_cols - 1) / legend_cols * row + 12 * s;
+  }
+  const int bottom = 6 * s + text_height(s) + 6 * s + text_height(s) + 8 * s + legend_h;
   const double L = left, T = top, R = W - right, B = H - bottom;
   auto px = [&](double v) { return L + sx.to_unit(v) * (R - L); };
   auto py = [&](double v) { return B - sy.to_unit(v) * (B - T); };
 
-  if (!plot.title.empty()) draw_text(img, int((L + R) / 2 - text_width(plot.title, s) / 2.0), 5 * s, plot.title, ts);
+  if (!plot.title.empty()) {  // centred over the plot area, moved left (or smaller) if it would leave the picture
+    TextStyle title_style = ts;
+    while (title_style.scale > 1 && text_width(plot.title, title_style.scale) > W - 4 * s) --title_style.scale;
+    const int tw = text_width(plot.title, title_style.scale);
+    draw_text(img, std::max(2 * s, std::min(int((L + R) / 2 - tw / 2.0), W - 2 * s - tw)),
+              5 * s + (text_height(s) - text_height(title_style.scale)) / 2, plot.title, title_style);
+  }
   const Rgba minor_grid{238, 239, 243, 255};
   for (double v : minor_ticks_of(sx)) {
     const int x = int(std::lround(px(v)));
@@ -212,10 +236,28 @@ Image render_plot(const Plot& plot) {
     const std::string lab = format_number(v, 3);
     draw_text(img, int(L) - 6 * s - text_width(lab, s), y - text_height(s) / 2, lab, ts);
   }
+  // Axis titles centred on their axis; one longer than the picture's side is drawn smaller.
   const std::string xt = axis_title(plot.x), yt = axis_title(plot.y);
-  draw_text(img, int((L + R) / 2 - text_width(xt, s) / 2.0), H - 8 * s - text_height(s), xt, ts);
-  draw_text_vertical(img, 6 * s, int((T + B) / 2 - text_width(yt, s) / 2.0), yt, ts);
+  TextStyle xts = ts, yts = ts;
+  while (xts.scale > 1 && text_width(xt, xts.scale) > W - 4 * s) --xts.scale;
+  while (yts.scale > 1 && text_width(yt, yts.scale) > H - 4 * s) --yts.scale;
+  const int xw = text_width(xt, xts.scale), yw = text_width(yt, yts.scale);
+  draw_text(img, std::clamp(int((L + R) / 2 - xw / 2.0), 2 * s, std::max(2 * s, W - 2 * s - xw)),
+            H - legend_h - 8 * s - text_height(s), xt, xts);
+  draw_text_vertical(img, 6 * s, std::clamp(int((T + B) / 2 - yw / 2.0), 2 * s, std::max(2 * s, H - 2 * s - yw)), yt,
+                     yts);
 
+  struct Ink {
+    double x, y;
+    int weight;
+  };
+  std::vector<Ink> ink;  // where the series drew
+  struct PointLabel {
+    double x, y, radius;  // the point and its marker (pixels)
+    const std::string* text;
+    Rgba colour;
+  };
+  std::vector<PointLabel> pending;  // drawn once every marker is known, so that they avoid them
   for (std::size_t si = 0; si < plot.series.size(); ++si) {
     const PlotSeries& s_ = plot.series[si];
     const Rgba c = s_.colour.value_or(palette(int(si)));
@@ -230,40 +272,87 @@ Image render_plot(const Plot& plot) {
       const double x = px(s_.x[i]), y = py(s_.y[i]);
       if (lines && have_prev) {
         double x0 = qx, y0 = qy, x1 = x, y1 = y;
-        if (clip(x0, y0, x1, y1, L, T, R, B)) img.line(x0, y0, x1, y1, c, s_.line_width * k);
+        if (clip(x0, y0, x1, y1, L, T, R, B)) {
+          img.line(x0, y0, x1, y1, c, s_.line_width * k);
+          // Every ~6 pixels of the line, for placing the legend.
+          const int n = std::min(400, 1 + int(std::hypot(x1 - x0, y1 - y0) / 6));
+          for (int j = 0; j <= n; ++j) ink.push_back({x0 + (x1 - x0) * j / n, y0 + (y1 - y0) * j / n, 1});
+        }
       }
-      if (marks && x >= L - 0.5 && x <= R + 0.5 && y >= T - 0.5 && y <= B + 0.5)
-        marker(img, int(si), x, y, s_.marker_size * k, c);
+      const bool inside = x >= L - 0.5 && x <= R + 0.5 && y >= T - 0.5 && y <= B + 0.5;
+      if (marks && inside) marker(img, int(si), x, y, s_.marker_size * k, c);
+      if (inside) ink.push_back({x, y, 8});  // a point weighs more than a piece of line
+      if (inside && i < s_.point_labels.size() && !s_.point_labels[i].empty())
+        pending.push_back({x, y, s_.marker_size * k, &s_.point_labels[i], c});
       qx = x;
       qy = y;
       have_prev = true;
     }
   }
 
-  if (plot.legend) {
-    std::vector<std::size_t> listed;
-    int lw = 0;
-    for (std::size_t i = 0; i < plot.series.size(); ++i)
-      if (!plot.series[i].label.empty()) {
-        listed.push_back(i);
-        lw = std::max(lw, text_width(plot.series[i].label, s));
-      }
-    if (!listed.empty()) {
-      const int row = text_height(s) + 4 * s, sample = 22 * s;
-      const int bw = 6 * s + sample + 6 * s + lw + 8 * s, bh = int(listed.size()) * row + 6 * s;
-      const int bx = int(R) - bw - 6 * s, by = int(T) + 6 * s;
-      img.fill_rect(bx, by, bw, bh, {255, 255, 255, 255}, 0.9);
-      img.frame_rect(bx, by, bw, bh, {180, 182, 190, 255}, 1);
-      for (std::size_t r = 0; r < listed.size(); ++r) {
-        const PlotSeries& s_ = plot.series[listed[r]];
-        const Rgba c = s_.colour.value_or(palette(int(listed[r])));
-        const double cy = by + 4 * s + r * row + text_height(s) / 2.0;
-        const double x0 = bx + 6 * s, x1 = x0 + sample;
-        if (s_.style != SeriesStyle::scatter) img.line(x0, cy, x1, cy, c, s_.line_width * k);
-        if (s_.style != SeriesStyle::line) marker(img, int(listed[r]), (x0 + x1) / 2, cy, s_.marker_size * k, c);
-        draw_text(img, int(x1) + 6 * s, by + 4 * s + int(r) * row, s_.label, ts);
-      }
+  // Point labels: right of the point and a little up; else the first of right-down, left-up,
+  // left-down that covers no marker and no label placed before (else the first place inside).
+  std::vector<std::array<int, 4>> placed;  // x0, y0, x1, y1
+  for (const Ink& p : ink)
+    if (p.weight > 1) {
+      const int r = int(std::ceil(4 * k));
+      placed.push_back({int(p.x) - r, int(p.y) - r, int(p.x) + r + 1, int(p.y) + r + 1});
     }
+  for (const PointLabel& pl : pending) {
+    const int gap = int(std::lround(pl.radius)) + 2 * s, w = text_width(*pl.text, s), h = text_height(s);
+    const int x = int(pl.x), y = int(pl.y);
+    const int places[4][2] = {{x + gap, y - h + 2 * s}, {x + gap, y + s}, {x - gap - w, y - h + 2 * s}, {x - gap - w, y + s}};
+    int chosen = -1, fallback = -1;
+    for (int j = 0; j < 4 && chosen < 0; ++j) {
+      const int lx = places[j][0], ly = places[j][1];
+      if (lx < 0 || lx + w > W || ly < 0 || ly + h > H) continue;
+      if (fallback < 0) fallback = j;
+      bool free = true;
+      for (const auto& r : placed) free = free && (lx + w <= r[0] || r[2] <= lx || ly + h <= r[1] || r[3] <= ly);
+      if (free) chosen = j;
+    }
+    if (chosen < 0) chosen = std::max(fallback, 0);
+    const int lx = places[chosen][0], ly = places[chosen][1];
+    placed.push_back({lx, ly, lx + w, ly + h});
+    draw_text(img, lx, ly, *pl.text, {pl.colour, s, true});
+  }
+
+  // One legend entry: the series' line and marker, then its label; (x, y) is the top left.
+  auto draw_entry = [&](std::size_t series, int x, int y) {
+    const PlotSeries& s_ = plot.series[series];
+    const Rgba c = s_.colour.value_or(palette(int(series)));
+    const double cy = y + text_height(s) / 2.0, x0 = x + 6 * s, x1 = x0 + sample;
+    if (s_.style != SeriesStyle::scatter) img.line(x0, cy, x1, cy, c, s_.line_width * k);
+    if (s_.style != SeriesStyle::line) marker(img, int(series), (x0 + x1) / 2, cy, s_.marker_size * k, c);
+    draw_text(img, int(x1) + 6 * s, y, s_.label, ts);
+  };
+  const Rgba legend_frame{180, 182, 190, 255};
+  if (below) {  // in rows of legend_cols entries under the x axis title, centred
+    const int rows = (int(listed.size()) + legend_cols - 1) / legend_cols;
+    const int bw = legend_cols * entry_w, bh = rows * row + 4 * s;
+    const int bx = std::max(2 * s, (W - bw) / 2), by = H - legend_h + 4 * s;
+    img.frame_rect(bx, by, bw, bh, legend_frame, 1);
+    for (std::size_t r = 0; r < listed.size(); ++r)
+      draw_entry(listed[r], bx + int(r) % legend_cols * entry_w, by + 4 * s + int(r) / legend_cols * row);
+  } else if (!listed.empty()) {
+    const int bw = entry_w, bh = int(listed.size()) * row + 6 * s;
+    // The corner of the plot area where the box hides the least data: top right unless it
+    // covers more points or lines than another corner (then top left, bottom right, bottom left).
+    const int margin = 6 * s, pad = int(std::ceil(4 * k)) + 2;
+    const int corners[4][2] = {{int(R) - bw - margin, int(T) + margin}, {int(L) + margin, int(T) + margin},
+                               {int(R) - bw - margin, int(B) - bh - margin}, {int(L) + margin, int(B) - bh - margin}};
+    int bx = corners[0][0], by = corners[0][1];
+    long best = -1;
+    for (const auto& corner : corners) {
+      long hidden = 0;
+      for (const Ink& p : ink)
+        if (p.x >= corner[0] - pad && p.x <= corner[0] + bw + pad && p.y >= corner[1] - pad && p.y <= corner[1] + bh + pad)
+          hidden += p.weight;
+      if (best < 0 || hidden < best) best = hidden, bx = corner[0], by = corner[1];
+    }
+    img.fill_rect(bx, by, bw, bh, {255, 255, 255, 255}, 0.9);
+    img.frame_rect(bx, by, bw, bh, legend_frame, 1);
+    for (std::size_t r = 0; r < listed.size(); ++r) draw_entry(listed[r], bx, by + 4 * s + int(r) * row);
   }
   return img;
 }

@@ -62,5 +62,26 @@ check info_stable_dt 0 "stable dt" -- "$pliant" info "$work/out4/vtu/b_00000.vtu
 check info_missing 2 "absent.vtu" -- "$pliant" info "$work/absent.vtu"
 check mesh_convert 0 "81 nodes, 192 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
 
+# study: the tables and the plots, their paths printed. test_study_plots checks the pixels; here,
+# that the files are PNGs of 800x600 (from the IHDR chunk) and not near-empty (a blank 800x600
+# plot compresses to about 2 KB; one with axes, labels and points, to more than 8 KB).
+png_size() { od -An -tu1 -j16 -N8 "$1" 2>/dev/null | awk '{printf "%dx%d", $1*16777216+$2*65536+$3*256+$4, $5*16777216+$6*65536+$7*256+$8}'; }
+bar="$src/scenes/validation/slender_bar.json"
+check study_plots 0 "results in .*study\.csv.*pareto\.png, .*convergence\.png" -- "$pliant" study "$bar" \
+  --sweep 'bodies[0].mesh.box.cells=[10,1,1]|[20,1,1]' --sweep 'bodies[0].model="linear"|"corotational"' --out "$work/study"
+for f in pareto convergence; do
+  png="$work/study/$f.png"
+  if [ "$(head -c 8 "$png" 2>/dev/null | od -An -tx1 | tr -d ' ')" = "89504e470d0a1a0a" ] && [ "$(png_size "$png")" = "800x600" ] \
+     && [ "$(stat -c %s "$png")" -gt 8000 ]; then
+    echo "ok   study writes $f.png"; passed=$((passed+1))
+  else echo "FAIL study writes $f.png (size $(png_size "$png"), $(stat -c %s "$png" 2>/dev/null) bytes)"; failed=$((failed+1)); fi
+done
+# Models alone: no mesh and no number to converge along, so no convergence plot, and a note says why.
+check study_no_convergence 0 "no convergence\.png: no sweep changes the mesh" -- "$pliant" study "$bar" \
+  --sweep 'bodies[0].model="linear"|"springs"' --out "$work/study2"
+if [ -s "$work/study2/pareto.png" ] && [ ! -e "$work/study2/convergence.png" ]; then
+  echo "ok   study without convergence"; passed=$((passed+1)); else echo "FAIL study without convergence"; failed=$((failed+1)); fi
+check study_bad_cost 2 "--cost must be wall or tet-steps" -- "$pliant" study "$bar" --sweep 'bodies[0].model="linear"' --cost joules --out "$work/study3"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

@@ -138,6 +138,58 @@ TEST(Plot, RendersSeriesAxesAndLegend) {
   EXPECT_EQ(render_plot(empty).height(), 600);
 }
 
+TEST(Plot, LegendAvoidsTheData) {
+  Plot p;
+  p.x = {"x", "m"};
+  p.y = {"y", "m"};
+  p.x.min = p.y.min = 0;
+  p.x.max = p.y.max = 20;
+  std::vector<double> xs, ys;
+  for (int i = 0; i <= 20; ++i) xs.push_back(i), ys.push_back(i);  // corner to corner: the top right is taken
+  p.series.push_back({"rising", xs, ys, SeriesStyle::line_and_markers});
+  p.series.back().point_labels = {"first"};
+  const Image img = render_plot(p);
+  const Rgba frame{180, 182, 190, 255};  // the legend box's outline
+  auto count = [&](int x0, int y0, int x1, int y1) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = x0; x < x1; ++x) n += img.get(x, y) == frame;
+    return n;
+  };
+  EXPECT_GT(count(0, 0, 400, 300), 100u);  // top left
+  EXPECT_EQ(count(400, 0, 800, 600) + count(0, 300, 400, 600), 0u);
+  // The point label is drawn beside the first point (bottom left), in the series colour.
+  const Rgba c = palette(0);
+  std::size_t labelled = 0;
+  for (int y = 400; y < 600; ++y)
+    for (int x = 0; x < 400; ++x) labelled += img.get(x, y) == c;
+  EXPECT_GT(labelled, 20u);
+}
+
+TEST(Plot, LegendBelowTheAxisTitle) {
+  Plot p;
+  p.x = {"x", "m"};
+  p.y = {"y", "m"};
+  p.legend_place = LegendPlace::below;
+  for (int i = 0; i < 6; ++i) p.series.push_back({"series " + std::to_string(i), {0, 1}, {double(i), double(i + 1)}});
+  const Image img = render_plot(p);
+  EXPECT_EQ(img.height(), 600);
+  // The legend's frame: only in the band under the x axis title, whose ink sits above it.
+  const Rgba frame{180, 182, 190, 255};
+  int top = 600;
+  for (int y = 0; y < 600; ++y)
+    for (int x = 0; x < 800; ++x)
+      if (img.get(x, y) == frame) top = std::min(top, y);
+  EXPECT_GT(top, 400);
+  EXPECT_LT(top, 560);
+  EXPECT_GT(ink(img, 0, top, 800, 600, Rgba{255, 255, 255, 255}), 500u);  // entries
+  // A title too long for the width is drawn smaller, inside the picture.
+  p.title = std::string(100, 'x');
+  const Image t = render_plot(p);
+  EXPECT_GT(ink(t, 0, 0, 800, 38, Rgba{255, 255, 255, 255}), 300u);  // above the plot area (y = 40)
+  EXPECT_EQ(ink(t, 0, 0, 2, 38, Rgba{255, 255, 255, 255}) + ink(t, 798, 0, 800, 38, Rgba{255, 255, 255, 255}), 0u);
+}
+
 TEST(Plot, BadSeriesAreErrors) {
   Plot p;
   p.title = "t";

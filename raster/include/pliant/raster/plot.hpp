@@ -32,6 +32,10 @@ struct PlotSeries {
   std::optional<Rgba> colour;         // default: the palette colour of the series' index
   double line_width = 2.0;            // pixels at 800x600 (scaled with the picture)
   double marker_size = 4.0;           // radius in pixels at 800x600
+  // Text beside each point (e.g. a run number), same order as x; empty or missing: none. Drawn
+  // right of the marker and a little up, else in the first of right-down, left-up, left-down
+  // that covers no marker and no other label, in the series colour over a white halo.
+  std::vector<std::string> point_labels;
 };
 
 struct PlotAxis {
@@ -45,11 +49,17 @@ struct PlotAxis {
   std::optional<double> min, max;     // default: the data's range (padded, rounded)
 };
 
+// Where the legend goes: inside the plot area, in the corner where it hides the least data, or
+// below the x axis title in as many columns as fit (for many or long entries; the plot area
+// shrinks by its height, the picture keeps its size).
+enum class LegendPlace { inside, below };
+
 struct Plot {
-  std::string title;
+  std::string title;                  // one line; drawn smaller when too long for the width
   PlotAxis x, y;
   std::vector<PlotSeries> series;
-  bool legend = true;
+  bool legend = true;                 // lists the series that have a label
+  LegendPlace legend_place = LegendPlace::inside;
   bool grid = true;
   int width = 800, height = 600;      // pixels
 };
