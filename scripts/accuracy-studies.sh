@@ -5,7 +5,9 @@
 #   bash scripts/accuracy-studies.sh [PLIANT] [OUT_DIR]
 #
 # PLIANT: the pliant executable (default build/apps/pliant); OUT_DIR: where each study writes its
-# study.csv and study.md (default out/accuracy). 1 to 2 minutes on 2 cores. Measured values are
+# study.csv, study.md, pareto.png and convergence.png (default out/accuracy); the plots shown on the
+# page are copied to docs/images/accuracy/NAME-PLOT.png (800x600, 10 to 60 KB each).
+# 1 to 2 minutes on 2 cores. Measured values are
 # deterministic; the costs (wall seconds) vary from machine to machine and run to run, and so can
 # the Pareto fronts of wall cost. Each run uses one thread; runs go one after the other.
 set -euo pipefail
@@ -13,6 +15,7 @@ root=$(cd "$(dirname "$0")/.." && pwd)
 pliant=${1:-$root/build/apps/pliant}
 out=${2:-$root/out/accuracy}
 doc=$root/docs/accuracy.md
+images=$root/docs/images/accuracy
 [[ -x $pliant ]] || { echo "accuracy-studies: no executable $pliant (build first, or pass its path)" >&2; exit 2; }
 mkdir -p "$out"
 cd "$root"
@@ -48,10 +51,25 @@ study bar_trade scenes/validation/slender_bar.json "$cells=[20,1,1]|[40,2,2]|[80
   'precision="float"|"double"' 'time_step.courant=0.3|0.6|0.9'
 elapsed=$((SECONDS - start))
 
-# section NAME: the study's command and its generated tables.
+# Plots from an earlier run that the page no longer shows must not linger.
+mkdir -p "$images"
+rm -f "$images"/*.png
+
+# section NAME [PLOT...]: the study's command, its plots (convergence, pareto: copied next to the
+# page) and its generated tables.
 section() {
-  printf '```sh\n%s\n```\n\n' "${commands[$1]}"
-  cat "$out/$1/study.md"
+  local name=$1 plot
+  shift
+  printf '```sh\n%s\n```\n\n' "${commands[$name]}"
+  for plot in "$@"; do
+    [[ -s $out/$name/$plot.png ]] || { echo "accuracy-studies: $name wrote no $plot.png" >&2; exit 1; }
+    cp "$out/$name/$plot.png" "$images/$name-$plot.png"
+    case $plot in
+      convergence) printf '![%s: |relative error| in %% against the mesh (or the swept value), one line per other setting](images/accuracy/%s-%s.png)\n\n' "$name" "$name" "$plot" ;;
+      pareto) printf '![%s: |relative error| in %% against the cost, the Pareto front in red with the run numbers of the table](images/accuracy/%s-%s.png)\n\n' "$name" "$name" "$plot" ;;
+    esac
+  done
+  cat "$out/$name/study.md"
   printf '\n'
 }
 
@@ -64,7 +82,9 @@ cat <<'EOF'
 Every validation scene in `scenes/validation/` has its analytic answer beside it, in
 `NAME.reference.json`; `pliant study` runs a scene over a grid of settings, measures the quantity
 in each run and writes the error against the reference with the cost of the run. This page
-publishes the shipped studies. Regenerate it (1 to 2 minutes on 2 cores) with
+publishes the shipped studies, each with its plots as `pliant study` draws them: the error
+against the mesh (`convergence.png`) and against the cost (`pareto.png`). Regenerate it (1 to 2
+minutes on 2 cores) with
 
 ```sh
 bash scripts/accuracy-studies.sh build/apps/pliant
@@ -106,6 +126,22 @@ pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|fin
   quantity (relative: value/reference − 1; value − reference when the reference is 0), `error`
   (the largest |error| over the quantities: the accuracy of the front), `pareto` (1 on the front),
   `reference_run`, `message` (the divergence). `DIR/study.md` holds the tables of this page.
+- Plots (PNG drawn in software, with libpng only: no display needed; 800 × 600 pixels per
+  panel), their paths printed with the tables':
+  - `DIR/pareto.png`: the cost of each run (x: wall seconds per simulated second, or tet-steps
+    with `--cost tet-steps`) against its error (y: the largest |relative error| over the
+    quantities, in %). Runs off the front are grey dots; the front is a red line, cheapest
+    first, each point labelled with its run number (`#N`, the row of `study.csv` and of the
+    tables). Runs without an error (diverged, the reference run) cannot be drawn: the title
+    says how many.
+  - `DIR/convergence.png`: per quantity (one panel each, side by side), the |relative error| in
+    % against the sweep that changes the mesh (x: the number of tets), one line per combination
+    of the other sweeps, labelled like `model=linear` (with more than 4 lines the legend goes
+    below the plot, which grows by a row per line); a diverged run leaves a gap. When no
+    sweep changes the mesh, x is the first sweep whose values are numbers (in its unit, e.g.
+    `young [Pa]`); when there is none either, no convergence plot is written and a note says so.
+  - Each axis is logarithmic when its values span a factor of 5 or more (errors and costs
+    usually span decades), linear otherwise; on a log axis a run of zero error cannot be drawn.
 - Each run builds its own World from its edited scene and steps it for the scene's duration, with
   one thread unless `--threads` says otherwise. A run whose stepping takes less than 0.3 s is
   repeated (up to 5 times in all) and the least wall time kept, so that the cost of small runs is
@@ -180,7 +216,7 @@ mass–spring network (springs k = E V/L² on the tet edges, from E alone) is 2%
 resolution: it does not converge to the continuum.
 
 EOF
-section slender_bar
+section slender_bar convergence pareto
 cat <<'EOF'
 ## 2. Wave speed in a laterally confined slab
 
@@ -192,7 +228,7 @@ network, which ignores ν (section 4), is 17% slow. A sharper ramp (1 ms, linear
 slowly (−6%, −3.7%, −2.5% at 4, 8, 12 cells): the half-height of a dispersed front lags.
 
 EOF
-section confined_slab
+section confined_slab convergence pareto
 cat <<'EOF'
 ## 3. Cantilever under gravity: tip deflection and first frequency
 
@@ -207,7 +243,7 @@ cells (section 6). The f₁ reference is Euler–Bernoulli; shear and rotary
 inertia lower the exact f₁ of this L/h = 10 beam by about 1%.
 
 EOF
-section cantilever
+section cantilever convergence pareto
 cat <<'EOF'
 ## 4. Uniform extension: axial strain and Poisson contraction
 
@@ -219,7 +255,7 @@ stress F/A its strain is ε(1 − 1.5ε). The mass–spring network on the tet e
 near 0.03 whatever the material's ν: it cannot represent ν.
 
 EOF
-section extension
+section extension convergence pareto
 cat <<'EOF'
 ## 5. Volume change under compression, against ν
 
@@ -235,12 +271,12 @@ reference, which is what it measures: the discretisation is right, the law keeps
 The spring network loses the same volume at every ν: it cannot represent ν.
 
 EOF
-section volume_nu
+section volume_nu convergence
 cat <<'EOF'
 The same at ν = 0.49 under refinement:
 
 EOF
-section volume_mesh
+section volume_mesh convergence pareto
 cat <<'EOF'
 ## 6. The speed/accuracy trade
 
@@ -262,7 +298,7 @@ Courant 0.9 (1.3–1.5× faster than double, 3× fewer steps than Courant 0.3) i
 other setting, and the front is that setting, with 5-tet cells, on each mesh.
 
 EOF
-section cantilever_trade
+section cantilever_trade pareto convergence
 cat <<'EOF'
 The slender bar over the same settings. The Courant number moves the coarse bars' speed by up to
 0.2 points without a trend (the time step's dispersion against the mesh's), float and double agree
@@ -270,7 +306,7 @@ to 0.01%, and at 80 × 4 × 4 every setting is within 0.07%: again the mesh deci
 float at Courant 0.9 is the cheap way to reach it.
 
 EOF
-section bar_trade
+section bar_trade pareto convergence
 printf '\nGenerated in %d s.\n' "$elapsed"
 } > "$doc"
 echo "accuracy-studies: wrote $doc (${elapsed} s of studies)" >&2
