@@ -79,7 +79,7 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
   using V = typename simd::Pack<T>::V;
   using M = typename simd::Pack<T>::M;
   constexpr int W = simd::Pack<T>::W;
-  constexpr int kMaxIterations = 16;
+  constexpr int kMaxIterations = 64;
   const T tol = rotation_tolerance<T>();
   M active[K];
   for (int b = 0; b < K; ++b) {

@@ -288,7 +288,7 @@ inline bool escape_rotation(const Mat3<S>& M, S q[4], S tol) {
 // fixed point.
 template <class T>
 inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
-  constexpr int kMaxIterations = 16;
+  constexpr int kMaxIterations = 64;
   const T tol = rotation_tolerance<T>();
   Mat3<T> R = quat_to_matrix(q);
   for (int it = 0; it < kMaxIterations; ++it) {

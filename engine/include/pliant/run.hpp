@@ -29,7 +29,10 @@ struct RunSummary {
   std::string status = "ok";  // "ok" | "diverged"
   std::string message;        // divergence details
   std::int64_t steps = 0;
-  int substeps = 1;
+  int substeps = 1;             // sub-steps per step as chosen at load
+  int max_substeps = 1;         // most sub-steps a step took (the adaptive step, TimeStepDef::adapt)
+  std::int64_t adapted_steps = 0;      // steps that took more sub-steps than chosen at load
+  double max_stiffness_ratio = 1;      // largest element stiffness ratio measured (1 = rest)
   double simulated_time = 0, wall_time_s = 0, steps_per_second = 0;
   std::size_t nodes = 0, tets = 0;
   std::string model, precision;

@@ -88,6 +88,7 @@ struct CellSpec {
   double dt_factor = 1.0;               // dt = factor x Courant bound
   bool substep = false;                 // for factors above 1: sub-step instead of being refused
   int steps = 1000;
+  bool adapt = true;                    // TimeStepDef::adapt (the adaptive step)
   std::string label() const;            // "cantilever corotational double E=1e+06 nu=0.3 dt=1.0x"
 };
 
@@ -96,12 +97,16 @@ struct CellResult {
   Outcome outcome = Outcome::stable;
   std::string message;       // refusal / divergence text, or a note (reoriented tets...)
   double bound = 0, dt = 0;  // s
-  int substeps = 1;
+  int substeps = 1;              // per step as chosen at load
+  int max_substeps = 1;          // most per step (the adaptive step may raise it)
+  std::int64_t adapted_steps = 0;  // steps the adaptive step sub-stepped (World::adapted_steps)
+  double max_stiffness_ratio = 1;
   std::int64_t steps_run = 0;
   double peak_ratio = 0, growth = 0;
   double wall_s = 0;
-  // Refused only above the bound without sub-stepping, clamped only with it, never diverged at
-  // dt <= 0.9 x the bound (a bug); a divergence above 0.9x is reported but tolerated.
+  // Refused only above the bound without sub-stepping; clamped only with it or when the
+  // deformation made the adaptive step sub-step; never diverged at dt <= 0.9 x the bound (a bug);
+  // a divergence above 0.9x is reported but tolerated.
   bool acceptable() const;
 };
 

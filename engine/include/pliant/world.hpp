@@ -60,7 +60,14 @@ class World {
   std::int64_t steps() const;      // calls of step() so far
   double dt() const;               // s, the step of step()
   double stable_dt() const;        // s, smallest Courant bound over all levels
-  int substeps() const;            // sub-steps per step()
+  int substeps() const;            // sub-steps the next step() takes (the adaptive step may raise it)
+  // The adaptive step (TimeStepDef::adapt): the most sub-steps any step() took, how many step()
+  // calls took more sub-steps than chosen at load, and the elements' stiffness
+  // ratio (current largest Hessian eigenvalue over the rest one: 1 at rest; last and largest measured).
+  int max_substeps() const;
+  std::int64_t adapted_steps() const;
+  double stiffness_ratio() const;
+  double max_stiffness_ratio() const;
   Vec3d gravity() const;           // m/s^2
   Precision precision() const;
   int threads() const;

@@ -87,6 +87,9 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   if (!s.message.empty()) j["message"] = s.message;
   j["steps"] = s.steps;
   j["substeps"] = s.substeps;
+  j["max_substeps"] = s.max_substeps;
+  j["adapted_steps"] = s.adapted_steps;
+  j["max_stiffness_ratio"] = s.max_stiffness_ratio;
   j["simulated_time"] = s.simulated_time;
   j["wall_time_s"] = s.wall_time_s;
   j["steps_per_second"] = s.steps_per_second;
@@ -181,6 +184,9 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   if (options.progress) std::fprintf(stderr, "\r%100s\r", "");
   s.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
   s.steps = world.steps();
+  s.max_substeps = world.max_substeps();
+  s.adapted_steps = world.adapted_steps();
+  s.max_stiffness_ratio = world.max_stiffness_ratio();
   s.simulated_time = world.time();
   s.steps_per_second = s.wall_time_s > 0 ? double(s.steps) / s.wall_time_s : 0;
   s.state_hash = hash_hex(world.state_hash());

@@ -4,9 +4,11 @@
 // nodes (see docs/performance.md for why and for the grain sizes).
 #include "simulation.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <fmt/format.h>
 
+#include "pliant/kernels/element_stiffness.hpp"
 #include "pliant/level_passes.hpp"
 
 namespace pliant::detail {
@@ -140,6 +142,34 @@ double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) 
       }
     }
   return kinetic;
+}
+
+template <class T>
+double Simulation<T>::stiffness_ratio(Executor& exec) const {
+  double ratio = 1;
+  for (const SimBody<T>& body : bodies)
+    for (const Level<T>& L : body.levels) {
+      if (L.model != ForceModel::stvk && L.model != ForceModel::corotational) continue;
+      scratch.resize(L.tet_count);
+      const ElementContext<T> ec = element_context(L);
+      double* out = scratch.data();
+      if (L.model == ForceModel::stvk)
+        exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain),
+                          [&](Range r) { element_stiffness_ratio_stvk(ec, r, out); });
+      else
+        exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain),
+                          [&](Range r) { element_stiffness_ratio_corotational(ec, r, out); });
+      for (std::size_t t = 0; t < L.tet_count; ++t) ratio = std::max(ratio, scratch[t]);
+    }
+  return ratio;
+}
+
+template <class T>
+bool Simulation<T>::can_stiffen() const {
+  for (const SimBody<T>& body : bodies)
+    for (const Level<T>& L : body.levels)
+      if (L.model == ForceModel::stvk || L.model == ForceModel::corotational) return true;
+  return false;
 }
 
 template class Simulation<float>;

@@ -26,7 +26,13 @@ struct World::Impl {
   double time = 0;
   std::int64_t steps = 0;
   double dt = 0, stable_dt = 0;
-  int substeps = 1;
+  int substeps = 1;            // sub-steps of the next step()
+  int base_substeps = 1;       // as chosen at load (rest state)
+  int max_substeps = 1;        // most sub-steps any step() took
+  std::int64_t adapted_steps = 0;  // step() calls that took more sub-steps than base_substeps
+  double stiffness_ratio = 1;  // last measured (adapt_substeps)
+  double max_stiffness_ratio = 1;
+
 
   explicit Impl(const WorldDef& d) : def(d), exec(d.threads) {
     if (d.precision == Precision::float32)
@@ -52,14 +58,13 @@ struct World::Impl {
       return m;
     });
     const TimeStepDef& ts = def.time_step;
+    base_substeps = substeps = 1;
     if (!ts.dt) {
       dt = stable_dt;
-      substeps = 1;
       return;
     }
     if (*ts.dt <= stable_dt) {
       dt = *ts.dt;
-      substeps = 1;
       return;
     }
     if (!ts.substep)
@@ -67,8 +72,48 @@ struct World::Impl {
           "time_step.dt = {:.6g} s is above the stable bound {:.6g} s (Courant number {}); use \"auto\", a dt at or "
           "below the bound, or \"substep\": true to split each step into stable sub-steps",
           *ts.dt, stable_dt, ts.courant));
-    substeps = int(std::ceil(*ts.dt / stable_dt));
+    base_substeps = substeps = int(std::ceil(*ts.dt / stable_dt));
     dt = *ts.dt;
+  }
+
+  // The adaptive step (TimeStepDef::adapt). Every kAdaptInterval steps (every step once the
+  // body is stiffened), the elements' stiffness ratio r (how far the current deformation has raised
+  // the largest Hessian eigenvalue of an element's energy over its rest value, at most;
+  // kernels/element_stiffness.hpp) estimates the current highest frequency as omega_rest sqrt(r).
+  // Below kAdaptTrigger nothing changes: ordinary deformations run at the step chosen at load and
+  // cost one monitor pass per 8 steps. Above it, the step is split so that each sub-step has
+  // omega_rest sqrt(r) h / 2 <= kAdaptCourant. The estimate scales the mesh's rest frequency by the
+  // worst element's ratio, which is not a bound (the stiffened elements need not be the ones that set
+  // omega_rest), hence the low target: with 0.7, stvk cells of the stability matrix (a beam
+  // collapsing under 10x its own weight, r up to 50) still diverged at 0.5x the bound; with 0.35
+  // they are all stable (docs/stability.md).
+  // The count goes up at once but comes down only after kAdaptRelax checks in a row have wanted
+  // fewer: symplectic Euler stores the velocity half a step off, and a step size that toggles
+  // from one step to the next (a ratio hovering at the trigger) pumps energy into the body (the
+  // stability matrix's inverted stvk cells diverged that way without this hysteresis).
+  static constexpr int kAdaptInterval = 8;
+  static constexpr double kAdaptTrigger = 2.0;
+  static constexpr double kAdaptCourant = 0.35;
+  static constexpr int kAdaptRelax = 32;
+  static constexpr int kMaxAdaptiveSubsteps = 256;
+  int checks_wanting_fewer = 0;
+  void adapt_substeps() {
+    stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
+    max_stiffness_ratio = std::max(max_stiffness_ratio, stiffness_ratio);
+    int want = base_substeps;
+    if (stiffness_ratio > kAdaptTrigger) {  // (NaN: the divergence check reports it)
+      // stable_dt = courant x 2 / omega_rest (undamped), so the sub-step's Courant number is
+      // courant (h / stable_dt) sqrt(r).
+      const double need = def.time_step.courant * (dt / stable_dt) * std::sqrt(stiffness_ratio) / kAdaptCourant;
+      want = std::max(base_substeps, need < kMaxAdaptiveSubsteps ? int(std::ceil(need)) : kMaxAdaptiveSubsteps);
+    }
+    if (want >= substeps) {
+      substeps = want;
+      checks_wanting_fewer = 0;
+    } else if (++checks_wanting_fewer >= kAdaptRelax) {
+      substeps = want;
+      checks_wanting_fewer = 0;
+    }
   }
 
   template <class S>
@@ -174,6 +219,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     b.def = def;
     b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
     s.bodies.push_back(std::move(b));
+    s.scratch.reserve(std::max(s.scratch.capacity(), mesh.tet_count()));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
   });
   try {
@@ -225,7 +271,14 @@ int World::add_probe(const ProbeDef& def) {
 
 void World::step() {
   Impl& w = *impl_;
+  if (w.def.time_step.adapt && (w.stiffness_ratio > Impl::kAdaptTrigger || w.substeps > w.base_substeps ||
+                                 w.steps % Impl::kAdaptInterval == 0) &&
+      w.visit([](const auto& s) { return s.can_stiffen(); })) {
+    w.adapt_substeps();
+  }
   const int n = w.substeps;
+  w.max_substeps = std::max(w.max_substeps, n);
+  if (n > w.base_substeps) ++w.adapted_steps;
   const double h = w.dt / n;
   for (int i = 0; i < n; ++i) {
     std::string where;
@@ -242,6 +295,10 @@ std::int64_t World::steps() const { return impl_->steps; }
 double World::dt() const { return impl_->dt; }
 double World::stable_dt() const { return impl_->stable_dt; }
 int World::substeps() const { return impl_->substeps; }
+int World::max_substeps() const { return impl_->max_substeps; }
+std::int64_t World::adapted_steps() const { return impl_->adapted_steps; }
+double World::stiffness_ratio() const { return impl_->stiffness_ratio; }
+double World::max_stiffness_ratio() const { return impl_->max_stiffness_ratio; }
 Vec3d World::gravity() const { return impl_->def.gravity; }
 Precision World::precision() const { return impl_->def.precision; }
 int World::threads() const { return impl_->exec.threads(); }

@@ -305,6 +305,7 @@ TimeStepDef Reader::time_step(const Json& j, const std::string& path) const {
     if (!(t.courant > 0 && t.courant <= 1)) fail(p, fmt::format("must be in (0, 1], got {}", t.courant));
   });
   optional(j, path, "substep", [&](const auto& v, const auto& p) { t.substep = boolean(v, p); });
+  optional(j, path, "adapt", [&](const auto& v, const auto& p) { t.adapt = boolean(v, p); });
   return t;
 }
 

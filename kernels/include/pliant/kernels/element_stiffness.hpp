@@ -1,0 +1,53 @@
+// How much stiffer each element is now than at rest: the deformation monitor of the adaptive
+// time step (World re-checks it every few steps and sub-steps when it has grown).
+//
+// Why: the stable step is measured at rest (engine/src/core/stable_step.cpp), but stvk stiffens
+// without bound in stretch, and corotational's tangent grows without bound as an inverted
+// element's two signed stretches cancel. A body that deforms far enough (a beam too soft to carry
+// its own weight, docs/stability.md) then has modes several times faster than at rest and
+// diverges at any step fixed at load.
+//
+// What: for an isotropic energy density psi of the signed principal stretches s1, s2, s3 (the
+// singular values of F, the smallest negated when det F < 0), the Hessian of psi with respect to
+// F has, in closed form (Smith, de Goes, Kim 2019, "Analytic eigensystems for isotropic distortion
+// energies"), the eigenvalues
+//   scaling: those of the 3x3 matrix d2psi / ds_i ds_j,
+//   twist:   (psi_i + psi_j) / (s_i + s_j),   flip: (psi_i - psi_j) / (s_i - s_j),   i < j,
+// with psi_i = dpsi / ds_i. The ratio written per tet is the largest of their magnitudes now over
+// the largest at rest (3 lambda + 2 mu, the hydrostatic scaling mode): the factor by which the
+// element's highest frequency squared has grown, at most. The scaling block is bounded by its
+// Gershgorin row sums (exact at rest). Negative eigenvalues (softening, buckling) count by their
+// magnitude: conservative.
+//   stvk:          psi = mu |E|^2 + lambda/2 tr(E)^2, E_i = (s_i^2 - 1)/2, psi_i = s_i S_i with
+//                  S_i = lambda tr E + 2 mu E_i; twist and flip are bounded by the stresses S_i
+//                  plus 2 mu s^2 (no blow-up at small stretches: stvk softens there).
+//   corotational:  psi = mu |S - I|^2 + lambda/2 tr(S - I)^2 with S = R^T F (R the element's rotation,
+//                  the invertible one for inverted tets), psi_i = 2 mu (s_i - 1) + lambda (tr S - 3);
+//                  scaling 2 mu + 3 lambda, flip 2 mu, twist unbounded as s_i + s_j -> 0. The
+//                  denominator is floored at kMinStretchSum (so a tet flattened exactly gives a
+//                  large finite ratio, not inf).
+// linear and springs keep their rest stiffness (linear is affine; a spring's tangent never exceeds
+// its rest stiffness k along the edge, and is below it across): their ratio is 1 and World does not
+// call these.
+//
+// Scalar code in double, like the energy reports; the corotational rotation is refined on a copy
+// of the stored warm start (never stored back), so monitoring never changes the trajectory.
+#pragma once
+#include "pliant/kernels/element_context.hpp"
+#include "pliant/kernels/range.hpp"
+
+namespace pliant {
+
+// Smallest |s_i + s_j| the corotational twist ratio divides by (dimensionless stretch).
+inline constexpr double kMinStretchSum = 1e-3;
+
+// ratio[t] = (largest |eigenvalue| of the Hessian of psi at the tet's current F) / (3 lambda + 2 mu),
+// for t in the range; 1 at rest.
+template <class T> void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range tets, double* ratio);
+template <class T> void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range tets, double* ratio);
+
+// Eigenvalues of the symmetric 3x3 matrix a (row-major, only the upper triangle read), ascending,
+// by the trigonometric closed form. Exposed for the tests.
+void symmetric_eigenvalues3(const double a[9], double eig[3]);
+
+}  // namespace pliant

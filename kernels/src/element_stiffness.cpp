@@ -1,0 +1,122 @@
+// The deformation monitor: per tet, the largest Hessian eigenvalue of the energy density now over
+// its value at rest (element_stiffness.hpp gives the formulas and why).
+#include "pliant/kernels/element_stiffness.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "tet_local.hpp"
+
+namespace pliant {
+using detail::Mat3;
+using detail::TetLocal;
+
+void symmetric_eigenvalues3(const double a[9], double eig[3]) {
+  const double a00 = a[0], a01 = a[1], a02 = a[2], a11 = a[4], a12 = a[5], a22 = a[8];
+  const double off = a01 * a01 + a02 * a02 + a12 * a12;
+  const double q = (a00 + a11 + a22) / 3;
+  const double d0 = a00 - q, d1 = a11 - q, d2 = a22 - q;
+  const double p2 = d0 * d0 + d1 * d1 + d2 * d2 + 2 * off;
+  if (!(p2 > 0)) {  // a multiple of the identity (or NaN)
+    eig[0] = eig[1] = eig[2] = q;
+    return;
+  }
+  const double p = std::sqrt(p2 / 6);
+  // B = (A - q I) / p; r = det(B) / 2, in [-1, 1] up to rounding.
+  const double b00 = d0 / p, b11 = d1 / p, b22 = d2 / p, b01 = a01 / p, b02 = a02 / p, b12 = a12 / p;
+  const double det = b00 * (b11 * b22 - b12 * b12) - b01 * (b01 * b22 - b12 * b02) + b02 * (b01 * b12 - b11 * b02);
+  const double r = std::clamp(det / 2, -1.0, 1.0);
+  const double phi = std::acos(r) / 3;
+  constexpr double kTwoThirdsPi = 2.0943951023931954923;
+  const double hi = q + 2 * p * std::cos(phi), lo = q + 2 * p * std::cos(phi + kTwoThirdsPi);
+  eig[0] = lo;
+  eig[1] = 3 * q - hi - lo;
+  eig[2] = hi;
+}
+
+namespace {
+
+// Symmetric part of a 3x3 matrix of T as doubles, row-major.
+template <class T>
+void sym_to_double(const Mat3<T>& A, double out[9]) {
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) out[3 * i + j] = 0.5 * (double(A.m[i][j]) + double(A.m[j][i]));
+}
+
+}  // namespace
+
+template <class T>
+void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range r, double* ratio) {
+  const double lambda = double(c.lambda), mu = double(c.mu);
+  const double rest = 3 * lambda + 2 * mu;  // Pa: the hydrostatic scaling mode at rest
+  for (std::size_t t = r.begin; t < r.end; ++t) {
+    TetLocal<T> e;
+    std::int32_t n[4];
+    detail::load_tet(c, t, e, n);
+    const Mat3<T> F = detail::corner_gradient(e.x, e.g);
+    double C[9];
+    sym_to_double(detail::mul_tn(F, F), C);
+    double c2[3];  // squared stretches s_i^2, eigenvalues of C = F^T F
+    symmetric_eigenvalues3(C, c2);
+    double s[3], E[3], S[3];
+    for (int i = 0; i < 3; ++i) {
+      c2[i] = std::max(c2[i], 0.0);
+      s[i] = std::sqrt(c2[i]);
+      E[i] = 0.5 * (c2[i] - 1);
+    }
+    const double trE = E[0] + E[1] + E[2];
+    for (int i = 0; i < 3; ++i) S[i] = lambda * trE + 2 * mu * E[i];  // principal 2nd PK stresses (Pa)
+    double top = 0;
+    for (int i = 0; i < 3; ++i) {
+      // Scaling block H_ij = delta_ij S_i + s_i s_j (lambda + 2 mu delta_ij): Gershgorin row i.
+      double row = std::fabs(S[i] + c2[i] * (lambda + 2 * mu));
+      for (int j = 0; j < 3; ++j)
+        if (j != i) row += s[i] * s[j] * lambda;
+      top = std::max(top, row);
+      for (int j = i + 1; j < 3; ++j) {
+        // twist: a weighted mean of S_i and S_j (s >= 0); flip, divided out in closed form.
+        const double twist = std::max(std::fabs(S[i]), std::fabs(S[j]));
+        const double flip = std::fabs(lambda * trE + mu * (c2[i] + s[i] * s[j] + c2[j] - 1));
+        top = std::max(top, std::max(twist, flip));
+      }
+    }
+    ratio[t] = top / rest;
+  }
+}
+
+template <class T>
+void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
+  const double lambda = double(c.lambda), mu = double(c.mu);
+  const double rest = 3 * lambda + 2 * mu;  // Pa: the scaling block's largest eigenvalue, at any F
+  for (std::size_t t = r.begin; t < r.end; ++t) {
+    TetLocal<T> e;
+    std::int32_t n[4];
+    detail::load_tet(c, t, e, n);
+    const Mat3<T> F = detail::corner_gradient(e.x, e.g);
+    T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};  // a copy
+    const Mat3<T> R = detail::extract_rotation(F, q);
+    double RtF[9];
+    sym_to_double(detail::mul_tn(R, F), RtF);
+    double s[3];  // signed principal stretches
+    symmetric_eigenvalues3(RtF, s);
+    const double trS = s[0] + s[1] + s[2];
+    double psi[3];
+    for (int i = 0; i < 3; ++i) psi[i] = 2 * mu * (s[i] - 1) + lambda * (trS - 3);  // principal stresses (Pa)
+    double top = rest;  // scaling: 2 mu + 3 lambda; flip: 2 mu, below it
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) {
+        const double den = std::max(std::fabs(s[i] + s[j]), kMinStretchSum);
+        top = std::max(top, std::fabs(psi[i] + psi[j]) / den);
+      }
+    ratio[t] = top / rest;
+  }
+}
+
+#define PLIANT_INSTANTIATE(T)                                                                      \
+  template void element_stiffness_ratio_stvk<T>(const ElementContext<T>&, Range, double*);         \
+  template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*);
+PLIANT_INSTANTIATE(float)
+PLIANT_INSTANTIATE(double)
+#undef PLIANT_INSTANTIATE
+
+}  // namespace pliant
