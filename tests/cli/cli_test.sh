@@ -26,6 +26,11 @@ check run_ok 0 "results in" -- "$pliant" run "$work/good.json" --out "$work/out"
 for f in summary.json probes.csv series.pvd; do
   if [ -s "$work/out/$f" ]; then echo "ok   writes $f"; passed=$((passed+1)); else echo "FAIL writes $f"; failed=$((failed+1)); fi
 done
+# probes.csv: the header run_scene.cpp writes, then one row per probe and step (5 columns).
+if [ "$(head -n 1 "$work/out/probes.csv" 2>/dev/null)" = "time,probe,x,y,z" ] \
+   && [ "$(sed -n 2p "$work/out/probes.csv" | awk -F, '$2 == "tip" {print NF}')" = "5" ]; then
+  echo "ok   probes.csv header"; passed=$((passed+1))
+else echo "FAIL probes.csv header: $(head -n 2 "$work/out/probes.csv" 2>/dev/null | tr '\n' '|')"; failed=$((failed+1)); fi
 for key in steps simulated_time wall_time_s nodes tets model precision threads dt stable_dt max_displacement kinetic_energy elastic_energy state_hash; do
   if grep -q "\"$key\"" "$work/out/summary.json" 2>/dev/null; then passed=$((passed+1)); else echo "FAIL summary lacks $key"; failed=$((failed+1)); fi
 done
@@ -44,6 +49,9 @@ scene nofix "{\"bodies\": [{$box, \"fixed\": [{\"box\": {\"min\": [5,5,5], \"max
 check empty_region 2 "selects no node" -- "$pliant" run "$work/nofix.json" --out "$work/o"
 scene missing_mesh "{\"bodies\": [{\"mesh\": {\"file\": \"absent.msh\"}}]}"
 check missing_mesh_file 2 "absent.msh" -- "$pliant" run "$work/missing_mesh.json" --out "$work/o"
+# A mesh file that exists but is malformed (a NaN coordinate at line 12): exit 2, naming file and line.
+scene bad_mesh "{\"bodies\": [{\"mesh\": {\"file\": \"$src/tests/data/mesh/bad_nan.msh\"}}]}"
+check malformed_mesh_file 2 "bad_nan\.msh:12: node 3 has a non-finite coordinate" -- "$pliant" run "$work/bad_mesh.json" --out "$work/o"
 # A load of 1e300 N overflows at once: the run must stop with exit 3 and say where.
 scene diverge "{\"duration\": 0.01, \"bodies\": [{\"name\": \"b\", $box, $fixed, \"loads\": [{\"region\": {\"box\": {\"min\": [0.19,-1,-1], \"max\": [1,1,1]}}, \"force\": [0,0,-1e300]}]}]}"
 check diverges 3 "body 'b', level 0, step [0-9]+.*node [0-9]+" -- "$pliant" run "$work/diverge.json" --out "$work/odiv"

@@ -3,9 +3,13 @@
 #include <gtest/gtest.h>
 #include <gmock/gmock.h>
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
+
 #include <fmt/format.h>
 
+#include "pliant/level_passes.hpp"
 #include "pliant/run.hpp"
 #include "pliant/world.hpp"
 
@@ -68,6 +72,43 @@ TEST_P(Determinism, StateHashIsIdenticalForOneTwoAndFourThreadsAndAcrossRuns) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllModels, Determinism,
+                         ::testing::Combine(::testing::Values(ForceModel::linear, ForceModel::stvk,
+                                                              ForceModel::corotational, ForceModel::springs),
+                                            ::testing::Values(Precision::float32, Precision::float64)));
+
+// The beam above has 833 nodes (and 3456 tets): below kSerialBelow nodes, so its node pass
+// (gather + integrate) runs on one thread whatever the thread count. This one has 41 x 11 x 11 =
+// 4961 nodes and 24000 tets, so that both passes are split into tasks (about 5 node tasks of
+// kNodeGrain, 24 tet tasks of kTetGrain) that 2 or 4 threads really share. 200 steps: 1-4 s per
+// model and precision on a shared 2-core machine.
+std::uint64_t big_hash_after(ForceModel model, Precision precision, int threads, int steps) {
+  WorldDef wd;
+  wd.precision = precision;
+  wd.threads = threads;
+  World w(wd);
+  BodyDef b = beam_def(model);
+  b.mesh.cells = {40, 10, 10};
+  w.add_body(b);
+  EXPECT_EQ(w.node_count(0), 4961u);
+  EXPECT_GT(w.node_count(0), 2 * kSerialBelow);
+  EXPECT_LT(pass_grain(w.node_count(0), kNodeGrain), w.node_count(0) / 4);
+  EXPECT_LT(pass_grain(w.tet_count(0), kTetGrain), w.tet_count(0) / 4);
+  for (int i = 0; i < steps; ++i) w.step();
+  return w.state_hash();
+}
+
+class DeterminismSplitPasses : public ::testing::TestWithParam<std::tuple<ForceModel, Precision>> {};
+
+TEST_P(DeterminismSplitPasses, StateHashIsIdenticalForOneTwoAndFourThreads) {
+  const auto [model, precision] = GetParam();
+  const int steps = 200;
+  const std::uint64_t h1 = big_hash_after(model, precision, 1, steps);
+  EXPECT_EQ(h1, big_hash_after(model, precision, 2, steps));
+  EXPECT_EQ(h1, big_hash_after(model, precision, 4, steps));
+  EXPECT_NE(h1, big_hash_after(model, precision, 1, 0));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllModels, DeterminismSplitPasses,
                          ::testing::Combine(::testing::Values(ForceModel::linear, ForceModel::stvk,
                                                               ForceModel::corotational, ForceModel::springs),
                                             ::testing::Values(Precision::float32, Precision::float64)));
@@ -227,6 +268,73 @@ TEST(PrescribedMotion, NodesFollowTheKeyframesExactly) {
   EXPECT_GT(moved, 0);
 }
 
+// Offset (m) of piecewise-linear keyframes at time t (s), held before the first and after the
+// last: what the scene format promises, written out here independently of MotionState.
+Vec3d keyframe_offset(const std::vector<KeyframeDef>& k, double t) {
+  if (t <= k.front().time) return k.front().offset;
+  if (t >= k.back().time) return k.back().offset;
+  std::size_t i = 1;
+  while (k[i].time < t) ++i;
+  const double s = (t - k[i - 1].time) / (k[i].time - k[i - 1].time);
+  Vec3d o;
+  for (int c = 0; c < 3; ++c) o[c] = k[i - 1].offset[c] + s * (k[i].offset[c] - k[i - 1].offset[c]);
+  return o;
+}
+
+TEST(PrescribedMotion, NodesFollowSeveralKeyframesAndHoldAfterTheLast) {
+  // Four keyframes starting away from zero, changing direction at each one, then held: after
+  // every step the driven nodes sit at rest + offset(t), with the velocity of the last step
+  // (offset(t) - offset(t - dt)) / dt (the mean over a step that straddles a keyframe), and
+  // after the last keyframe they stay put with zero velocity.
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  World w(wd);
+  BodyDef b = beam_def(ForceModel::corotational);
+  const std::vector<KeyframeDef> keys = {{0.002, {0.001, 0, 0}},
+                                         {0.010, {0.004, 0.002, -0.003}},
+                                         {0.015, {0.004, -0.001, -0.006}},
+                                         {0.022, {-0.002, 0.0, 0.001}}};
+  b.prescribed[0].keyframes = keys;
+  w.add_body(b);
+  const auto& L = w.level<double>(0);
+  std::vector<std::size_t> driven;
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    const double dx = L.X[0][n] - 0.4, dy = L.X[1][n] - 0.05, dz = L.X[2][n] - 0.1;
+    if (std::sqrt(dx * dx + dy * dy + dz * dz) <= 0.03) driven.push_back(n);
+  }
+  ASSERT_FALSE(driven.empty());
+  // At load the nodes already sit at the offset of t = 0, the first keyframe's (held before it).
+  for (std::size_t n : driven)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(L.x[k][n] - L.X[k][n], keys[0].offset[k], 1e-15);
+  const double end = 0.03;  // s: 8 ms past the last keyframe
+  int segments_seen[5] = {0, 0, 0, 0, 0};  // steps ending before key 0, in segments 1..3, after key 3
+  int checked = 0;
+  while (w.time() < end) {
+    const double t0 = w.time();
+    w.step();
+    const double t1 = w.time();
+    const Vec3d o1 = keyframe_offset(keys, t1), o0 = keyframe_offset(keys, t0);
+    int seg = 0;
+    while (seg < 4 && t1 > keys[std::size_t(seg)].time) ++seg;
+    ++segments_seen[seg];
+    for (std::size_t n : driven)
+      for (int k = 0; k < 3; ++k) {
+        ASSERT_NEAR(L.x[k][n] - L.X[k][n], o1[k], 1e-12) << "t " << t1 << " node " << n << " axis " << k;
+        ASSERT_NEAR(L.v[k][n], (o1[k] - o0[k]) / (t1 - t0), 1e-8) << "t " << t1 << " node " << n << " axis " << k;
+      }
+    ++checked;
+  }
+  // Every segment, and the hold after the last keyframe, was crossed by several steps.
+  for (int seg = 0; seg < 5; ++seg) EXPECT_GE(segments_seen[seg], 3) << "segment " << seg;
+  // Held: exactly the last offset, and at rest.
+  for (std::size_t n : driven)
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(L.x[k][n] - L.X[k][n], keys.back().offset[k], 1e-15);
+      EXPECT_EQ(L.v[k][n], 0.0);
+    }
+  EXPECT_GT(checked, 20);
+}
+
 TEST(PrescribedMotion, HostCanDriveARegion) {
   WorldDef wd;
   wd.gravity = {0, 0, 0};
@@ -286,6 +394,82 @@ TEST(Probes, FollowTheMaterialPoint) {
   for (int k = 0; k < 3; ++k) EXPECT_NEAR(q[k], L.x[k][corner], 1e-12);
   EXPECT_THROW(w.add_probe({"far", "beam", {3, 3, 3}}), InputError);
   EXPECT_THROW(w.add_probe({"nobody", "ghost", {0, 0, 0}}), InputError);
+}
+
+// A probe at a point inside a tet, not on a node, face or edge: its position is the linear
+// interpolation of the tet's corners, so any affine map x = A X + b of the whole body moves it to
+// A p + b exactly (to rounding).
+const Vec3d kInsidePoint = {0.1234, 0.0377, 0.0611};  // m; cells are 0.025 x 0.0167 x 0.0167
+
+TEST(Probes, InterpolateExactlyInsideATetUnderAnAffineMap) {
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  World w(wd);
+  w.add_body(beam_def(ForceModel::corotational));
+  const int p = w.add_probe({"inside", "beam", kInsidePoint});
+  Level<double>& L = w.level<double>(0);
+  // Not a node: the nearest node is a few mm away.
+  double nearest = 1e300;
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    const double d[3] = {L.X[0][n] - kInsidePoint[0], L.X[1][n] - kInsidePoint[1], L.X[2][n] - kInsidePoint[2]};
+    nearest = std::min(nearest, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
+  }
+  EXPECT_GT(nearest, 1e-3);
+  const Vec3d rest = w.probe_position(p);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(rest[k], kInsidePoint[k], 1e-15);
+  // A rotation, a shear, a stretch and a translation.
+  const double A[3][3] = {{1.1, 0.2, -0.05}, {-0.3, 0.9, 0.15}, {0.07, -0.12, 1.25}};
+  const double t[3] = {0.5, -0.25, 2.0};  // m
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    const double X[3] = {L.X[0][n], L.X[1][n], L.X[2][n]};
+    for (int i = 0; i < 3; ++i) L.x[i][n] = A[i][0] * X[0] + A[i][1] * X[1] + A[i][2] * X[2] + t[i];
+  }
+  const Vec3d q = w.probe_position(p);
+  for (int i = 0; i < 3; ++i) {
+    const double want =
+        A[i][0] * kInsidePoint[0] + A[i][1] * kInsidePoint[1] + A[i][2] * kInsidePoint[2] + t[i];
+    EXPECT_NEAR(q[i], want, 1e-12) << "axis " << i;
+  }
+  // A non-affine field is not reproduced (the probe reads x, not X): moving one corner of the
+  // probe's tet moves the probe by that corner's weight, a fraction strictly between 0 and 1.
+  int corners_that_matter = 0;
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    const double saved = L.x[2][n];
+    L.x[2][n] += 1.0;
+    const double moved = w.probe_position(p)[2] - q[2];
+    L.x[2][n] = saved;
+    if (moved != 0.0) {
+      ++corners_that_matter;
+      EXPECT_GT(moved, 1e-3) << "node " << n;
+      EXPECT_LT(moved, 1 - 1e-3) << "node " << n;
+    }
+  }
+  EXPECT_EQ(corners_that_matter, 4);
+}
+
+TEST(Probes, FollowAPrescribedTranslationOfTheWholeBody) {
+  // Every node driven along keyframes: the body translates rigidly, and the probe inside a tet
+  // is at p + offset(t) after every step.
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  World w(wd);
+  BodyDef b = beam_def(ForceModel::stvk);
+  b.fixed.clear();
+  b.loads.clear();
+  b.prescribed[0].region.kind = RegionDef::Kind::box;
+  b.prescribed[0].region.min = {-1, -1, -1};
+  b.prescribed[0].region.max = {1, 1, 1};
+  b.prescribed[0].keyframes = {{0.0, {0, 0, 0}}, {0.01, {0.02, -0.01, 0.005}}, {0.02, {0.0, 0.03, 0.01}}};
+  w.add_body(b);
+  const int p = w.add_probe({"inside", "beam", kInsidePoint});
+  const auto& keys = b.prescribed[0].keyframes;
+  for (int i = 0; i < 40; ++i) {
+    w.step();
+    const Vec3d o = keyframe_offset(keys, w.time());
+    const Vec3d q = w.probe_position(p);
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(q[k], kInsidePoint[k] + o[k], 1e-12) << "step " << i << " axis " << k;
+  }
+  EXPECT_GT(w.time(), 0.01);  // past the first interval
 }
 
 TEST(Api, ErrorsAreClear) {

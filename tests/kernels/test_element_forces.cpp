@@ -1,9 +1,12 @@
 // Element kernels on a single tetrahedron: rigid motions give no force (rotation only for the
-// rotation-invariant models), forces are minus the gradient of the energy, Newton's third law.
+// rotation-invariant models), forces are minus the gradient of the energy, Newton's third law,
+// the viscous stress of each model's strain rate, and the rest geometry (degenerate tets refused).
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include "pliant/kernels/element_forces.hpp"
@@ -309,6 +312,253 @@ TEST(ElementForces, CorotationalStressIsRotatedWithTheBody) {
   EXPECT_NEAR(sigma[0], t.c.lambda * e, 1e-6 * t.c.mu * e * 1e3);
 }
 
+// ---- viscous stress (thesis ch. 2 §4) -------------------------------------------------------
+// Velocities v_a = G X_a (a uniform velocity gradient G, 1/s) make the kernels' velocity
+// gradient F_dot equal G to rounding. The viscous stress is D(e) = phi tr(e) I + 2 psi e of the
+// strain rate e of each model's own measure, added to its stress before f_c = -V P grad(phi_c):
+//   linear        P_visc = D(sym G)
+//   stvk          P_visc = F D(sym(F^T G))     (the rate of Green–Lagrange strain)
+//   corotational  P_visc = R D(sym(R^T G))     (F = R S)
+// The expectations below are built from G, F, R and the rest gradients, not from the kernel.
+
+using M3 = std::array<std::array<double, 3>, 3>;
+
+M3 mat_mul(const M3& A, const M3& B) {
+  M3 C{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j)
+      for (int k = 0; k < 3; ++k) C[i][j] += A[i][k] * B[k][j];
+  return C;
+}
+M3 transposed(const M3& A) {
+  M3 B{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) B[i][j] = A[j][i];
+  return B;
+}
+// phi tr(sym A) I + 2 psi sym(A) (Pa for A in 1/s and phi, psi in Pa s).
+M3 viscous(const M3& A, double phi, double psi) {
+  M3 S{};
+  const double tr = A[0][0] + A[1][1] + A[2][2];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) S[i][j] = psi * (A[i][j] + A[j][i]) + (i == j ? phi * tr : 0.0);
+  return S;
+}
+M3 rotation_matrix(const double w[3]) {
+  M3 R{};
+  for (int j = 0; j < 3; ++j) {
+    const double e[3] = {j == 0 ? 1.0 : 0.0, j == 1 ? 1.0 : 0.0, j == 2 ? 1.0 : 0.0};
+    double c[3];
+    rotate(w, e, c);
+    for (int i = 0; i < 3; ++i) R[i][j] = c[i];
+  }
+  return R;
+}
+
+// Corner forces (N) of a first Piola stress P (Pa) on the tet kRest: -V P grad(phi_c).
+std::array<std::array<double, 3>, 4> corner_forces_of(const M3& P) {
+  double vol, g[9];
+  EXPECT_TRUE(tet_rest_geometry(kRest[0], kRest[1], kRest[2], kRest[3], &vol, g));
+  std::array<std::array<double, 3>, 4> f{};
+  for (int c = 1; c < 4; ++c)
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) f[c][i] -= vol * P[i][j] * g[3 * (c - 1) + j];
+      f[0][i] -= f[c][i];
+    }
+  return f;
+}
+
+// A generic velocity gradient (1/s): not symmetric, non-zero trace.
+const M3 kVelocityGradient = {{{0.8, -0.3, 0.5}, {0.2, -0.4, 0.7}, {-0.6, 0.1, 0.3}}};
+
+template <class T>
+void set_velocity_gradient(OneTet<T>& t, const M3& G) {
+  for (int a = 0; a < 4; ++a)
+    for (int i = 0; i < 3; ++i)
+      t.v[i][a] = T(G[i][0] * kRest[a][0] + G[i][1] * kRest[a][1] + G[i][2] * kRest[a][2]);
+}
+
+template <class T>
+void check_viscous_stress_at_rest() {
+  // At rest (x = X: F = I, R = I) every continuum model gives D(sym G). lambda = mu = 0 so that
+  // the force is the viscous one alone.
+  const double phi = 7.0, psi = 3.0;  // Pa s
+  const double tol = sizeof(T) == 4 ? 2e-6 : 1e-13;
+  const auto want = corner_forces_of(viscous(kVelocityGradient, phi, psi));
+  double scale = 0;
+  for (const auto& f : want)
+    for (double x : f) scale = std::max(scale, std::fabs(x));
+  for (Model m : {Model::linear, Model::stvk, Model::corotational}) {
+    OneTet<T> t(kRest, m);
+    t.c.lambda = t.c.mu = T(0);
+    t.c.bulk_viscosity = T(phi);
+    t.c.shear_viscosity = T(psi);
+    set_velocity_gradient(t, kVelocityGradient);
+    t.forces();
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(t.force(a, k), want[a][k], tol * scale) << "model " << int(m) << " corner " << a << " axis " << k;
+    // The viscous force dissipates: its power sum f.v is -V D(e):e = -V (phi tr(e)^2 + 2 psi e:e), e = sym G.
+    double power = 0, ee = 0;
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) power += t.force(a, k) * double(t.v[k][a]);
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const double e = 0.5 * (kVelocityGradient[i][j] + kVelocityGradient[j][i]);
+        ee += e * e;
+      }
+    const double tr = kVelocityGradient[0][0] + kVelocityGradient[1][1] + kVelocityGradient[2][2];
+    const double want_power = -double(t.volume[0]) * (phi * tr * tr + 2 * psi * ee);  // W
+    EXPECT_NEAR(power, want_power, (sizeof(T) == 4 ? 1e-5 : 1e-12) * std::fabs(want_power)) << "model " << int(m);
+  }
+}
+
+TEST(ViscousStress, AtRestIsPhiTraceTimesIdentityPlusTwoPsiStrainRateDouble) { check_viscous_stress_at_rest<double>(); }
+TEST(ViscousStress, AtRestIsPhiTraceTimesIdentityPlusTwoPsiStrainRateFloat) { check_viscous_stress_at_rest<float>(); }
+
+TEST(ViscousStress, BulkAndShearCoefficientsActSeparately) {
+  // A dilation rate G = g I gives the stress (3 phi + 2 psi) g I; a pure shear rate (trace 0)
+  // gives 2 psi G and feels no bulk viscosity.
+  const double g = 0.5;  // 1/s
+  const M3 dilation = {{{g, 0, 0}, {0, g, 0}, {0, 0, g}}};
+  const M3 shear = {{{0, 0.4, 0}, {0.4, 0, 0}, {0, 0, 0}}};
+  for (const auto& [phi, psi] : {std::pair{5.0, 0.0}, std::pair{0.0, 2.0}}) {
+    for (const M3* G : {&dilation, &shear}) {
+      OneTet<double> t(kRest, Model::linear);
+      t.c.lambda = t.c.mu = 0;
+      t.c.bulk_viscosity = phi;
+      t.c.shear_viscosity = psi;
+      set_velocity_gradient(t, *G);
+      t.forces();
+      const bool is_shear = G == &shear;
+      M3 P{};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j)
+          P[i][j] = is_shear ? 2 * psi * shear[i][j] : (i == j ? (3 * phi + 2 * psi) * g : 0.0);
+      const auto want = corner_forces_of(P);
+      for (int a = 0; a < 4; ++a)
+        for (int k = 0; k < 3; ++k)
+          EXPECT_NEAR(t.force(a, k), want[a][k], 1e-15 + 1e-13 * std::fabs(want[a][k]))
+              << "phi " << phi << " psi " << psi << (is_shear ? " shear" : " dilation");
+      if (is_shear && psi == 0) {
+        EXPECT_LT(t.max_force(), 1e-15);  // bulk viscosity ignores shear
+      }
+    }
+  }
+}
+
+TEST(ViscousStress, DeformedStateUsesEachModelsStrainRate) {
+  // Away from rest, the viscous part is f(x, v) - f(x, 0) (the elastic part does not depend on
+  // v). F = R S with S symmetric positive definite, so R is the polar rotation.
+  const double phi = 40.0, psi = 25.0;  // Pa s
+  const M3 S = {{{1.06, 0.02, -0.01}, {0.02, 0.97, 0.015}, {-0.01, 0.015, 1.03}}};
+  const double w[3] = {0.4, -0.7, 0.25};
+  const M3 R = rotation_matrix(w);
+  const M3 F = mat_mul(R, S);
+  const M3& G = kVelocityGradient;
+  struct Case {
+    Model model;
+    M3 P;
+  };
+  const Case cases[] = {
+      {Model::linear, viscous(G, phi, psi)},
+      {Model::stvk, mat_mul(F, viscous(mat_mul(transposed(F), G), phi, psi))},
+      {Model::corotational, mat_mul(R, viscous(mat_mul(transposed(R), G), phi, psi))},
+  };
+  for (const Case& cs : cases) {
+    OneTet<double> t(kRest, cs.model);
+    t.c.bulk_viscosity = phi;
+    t.c.shear_viscosity = psi;
+    for (int a = 0; a < 4; ++a)
+      for (int i = 0; i < 3; ++i)
+        t.x[i][a] = 0.2 + F[i][0] * kRest[a][0] + F[i][1] * kRest[a][1] + F[i][2] * kRest[a][2];
+    t.forces();  // v = 0: the elastic force (and the converged corotational rotation)
+    double elastic[4][3];
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) elastic[a][k] = t.force(a, k);
+    set_velocity_gradient(t, G);
+    t.forces();
+    const auto want = corner_forces_of(cs.P);
+    double scale = 0;
+    for (const auto& f : want)
+      for (double x : f) scale = std::max(scale, std::fabs(x));
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(t.force(a, k) - elastic[a][k], want[a][k], 1e-9 * scale)
+            << "model " << int(cs.model) << " corner " << a << " axis " << k;
+  }
+  // The three measures differ here (F is 6% from I and turned by 49 deg), so the test tells
+  // them apart: linear's P_visc is not the corotational one.
+  const auto lin = corner_forces_of(cases[0].P), cor = corner_forces_of(cases[2].P);
+  EXPECT_GT(std::fabs(lin[1][0] - cor[1][0]) + std::fabs(lin[2][1] - cor[2][1]), 0.1 * std::fabs(lin[1][0]));
+}
+
+TEST(ViscousStress, RigidSpinIsNotDampedByStvkAndCorotationalButIsByLinear) {
+  // A turned tet spinning rigidly: v_a = W R X_a, W skew, so F = R and F_dot = W R. The
+  // Green–Lagrange and corotated strain rates sym(R^T W R) vanish; the Cauchy one, sym(W R),
+  // does not (the linear model's rotation artefact, now in its damping).
+  const double w[3] = {0.3, 0.9, -0.5};
+  const M3 R = rotation_matrix(w);
+  const M3 W = {{{0, -1.2, 0.4}, {1.2, 0, -0.7}, {-0.4, 0.7, 0}}};  // rad/s
+  const double phi = 40, psi = 25;                                   // Pa s
+  const auto linear_want = corner_forces_of(viscous(mat_mul(W, R), phi, psi));
+  double scale = 0;
+  for (const auto& f : linear_want)
+    for (double x : f) scale = std::max(scale, std::fabs(x));
+  for (Model m : {Model::linear, Model::stvk, Model::corotational}) {
+    OneTet<double> t(kRest, m);
+    t.c.lambda = t.c.mu = 0;
+    t.c.bulk_viscosity = phi;
+    t.c.shear_viscosity = psi;
+    for (int a = 0; a < 4; ++a) {
+      double p[3];
+      rotate(w, kRest[a], p);
+      for (int i = 0; i < 3; ++i) t.x[i][a] = p[i] + 0.1;
+      for (int i = 0; i < 3; ++i) t.v[i][a] = W[i][0] * p[0] + W[i][1] * p[1] + W[i][2] * p[2];
+    }
+    t.forces();
+    if (m == Model::linear) {
+      for (int a = 0; a < 4; ++a)
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.force(a, k), linear_want[a][k], 1e-12 * scale);
+    } else {
+      EXPECT_LT(t.max_force(), 1e-12 * scale) << "model " << int(m);
+    }
+  }
+  EXPECT_GT(scale, 1e-3);  // N: the linear model's spurious damping is not small
+}
+
+TEST(ViscousStress, SpringDashpotsPullAlongEachEdgeWithBetaTimesStiffness) {
+  // Springs: each edge (a, b) of rest length L carries a dashpot of coefficient beta k,
+  // k = E V / L^2: tension beta k (v_b - v_a).d / l along d = x_b - x_a (at rest l = L).
+  const double beta = 2e-3, young = 1e6;  // s, Pa
+  OneTet<double> t(kRest, Model::springs, young);
+  t.c.spring_damping = beta;
+  set_velocity_gradient(t, kVelocityGradient);
+  t.forces();
+  double want[4][3] = {};
+  const int edges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (const auto& e : edges) {
+    double d[3], rate = 0, L2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      d[k] = kRest[e[1]][k] - kRest[e[0]][k];
+      L2 += d[k] * d[k];
+    }
+    for (int k = 0; k < 3; ++k) rate += (t.v[k][e[1]] - t.v[k][e[0]]) * d[k];
+    const double k_spring = young * double(t.volume[0]) / L2, L = std::sqrt(L2);  // N/m, m
+    const double tension = beta * k_spring * rate / L;                              // N
+    for (int k = 0; k < 3; ++k) {
+      want[e[0]][k] += tension * d[k] / L;
+      want[e[1]][k] -= tension * d[k] / L;
+    }
+  }
+  double scale = 0;
+  for (const auto& f : want)
+    for (double x : f) scale = std::max(scale, std::fabs(x));
+  EXPECT_GT(scale, 0.0);
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.force(a, k), want[a][k], 1e-12 * scale) << "corner " << a << " axis " << k;
+}
+
 TEST(RestGeometry, VolumeGradientsAndAltitude) {
   const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0}, d[3] = {0, 0, 1};
   double vol, g[9];
@@ -318,8 +568,25 @@ TEST(RestGeometry, VolumeGradientsAndAltitude) {
     for (int k = 0; k < 3; ++k) EXPECT_DOUBLE_EQ(g[3 * i + k], i == k ? 1.0 : 0.0);
   EXPECT_NEAR(tet_min_altitude(a, b, c, d), 1.0 / std::sqrt(3.0), 1e-15);  // from a to face bcd
   EXPECT_FALSE(tet_rest_geometry(a, c, b, d, &vol, g));                    // inverted
-  const double e[3] = {2, 0, 0};
-  EXPECT_FALSE(tet_rest_geometry(a, b, e, d, &vol, g) && vol > 0 && false);
+  // Degenerate tets are rejected (false) and report their zero volume, whichever corner makes
+  // them flat: three collinear corners, four coplanar corners, a repeated corner. A non-finite
+  // corner is rejected too. Their smallest altitude is 0.
+  const double e[3] = {2, 0, 0};                 // a, b, e collinear on the x axis
+  const double f[3] = {0.3, 0.7, 0};             // a, b, c, f in the plane z = 0
+  const double n[3] = {std::nan(""), 0, 0};
+  EXPECT_FALSE(tet_rest_geometry(a, b, e, d, &vol, g));
+  EXPECT_EQ(vol, 0.0);
+  EXPECT_FALSE(tet_rest_geometry(a, b, c, f, &vol, g));
+  EXPECT_EQ(vol, 0.0);
+  EXPECT_FALSE(tet_rest_geometry(a, b, b, d, &vol, g));
+  EXPECT_EQ(vol, 0.0);
+  EXPECT_FALSE(tet_rest_geometry(a, b, c, n, &vol, g));
+  EXPECT_EQ(tet_min_altitude(a, b, e, d), 0.0);
+  EXPECT_EQ(tet_min_altitude(a, b, c, f), 0.0);
+  // A sliver of height 1e-12 m is thin but not degenerate: accepted, with its exact volume.
+  const double s[3] = {0.25, 0.25, 1e-12};
+  EXPECT_TRUE(tet_rest_geometry(a, b, c, s, &vol, g));
+  EXPECT_NEAR(vol, 1e-12 / 6.0, 1e-28);
 }
 
 }  // namespace

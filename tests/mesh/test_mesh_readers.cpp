@@ -195,7 +195,19 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"bad_degenerate.msh", "bad_degenerate.msh", ":25: element 5: degenerate tetrahedron (volume 0)", ""},
         BadCase{"bad_binary.msh", "bad_binary.msh", ":2: binary .msh not supported, re-save as ASCII", ""},
         BadCase{"bad_v4_count.msh", "bad_v4_count.msh", ":28: the header at line 10 declares 9 nodes",
-                "the blocks hold 8"}),
+                "the blocks hold 8"},
+        // Gmsh v1 ($NOD/$ELM), copies of cube_v1.msh: cut after 3 of the 7 elements, an element
+        // on node 999, a NaN coordinate.
+        BadCase{"bad_v1_truncated.msh", "bad_v1_truncated.msh", ":17: unexpected end of file",
+                "element 4 (line 14 declares 7 elements, only 3 present)"},
+        BadCase{"bad_v1_index.msh", "bad_v1_index.msh", ":19: element 5 refers to node 999, which is not defined", ""},
+        BadCase{"bad_v1_nan.msh", "bad_v1_nan.msh", ":5: node 30 has a non-finite coordinate", "(1, nan, 0)"},
+        // Gmsh v4.1, copies of cube_v41.msh: cut inside the coordinates of the second node block,
+        // a tet on node 999, an infinite coordinate.
+        BadCase{"bad_v4_truncated.msh", "bad_v4_truncated.msh", ":26: unexpected end of file",
+                "coordinates of node 7"},
+        BadCase{"bad_v4_index.msh", "bad_v4_index.msh", ":37: element 4 refers to node 999, which is not defined", ""},
+        BadCase{"bad_v4_nan.msh", "bad_v4_nan.msh", ":27: node 7 has a non-finite coordinate", "(1, inf, 1)"}),
     [](const auto& info) { return test_name(info.param.file); });
 
 INSTANTIATE_TEST_SUITE_P(
@@ -233,7 +245,18 @@ INSTANTIATE_TEST_SUITE_P(
         BadCase{"bad_index.node", "bad_index.ele", ":4: tetrahedron 2 refers to node 999, which is not defined", ""},
         BadCase{"bad_nan.ele", "bad_nan.node", ":7: point 5 has a non-finite coordinate", "nan"},
         BadCase{"bad_degenerate.node", "bad_degenerate.ele", ":6: tetrahedron 4: degenerate tetrahedron (volume 0)", ""},
-        BadCase{"lonely.node", "lonely.ele", ": cannot open file", "lonely.node"}),
+        BadCase{"lonely.node", "lonely.ele", ": cannot open file", "lonely.node"},
+        // An empty .node next to a good .ele.
+        BadCase{"empty.ele", "empty.node", ": file is empty", ""},
+        // cube.node cut inside the line of point 8; cube.ele cut inside the line of tet 4, or
+        // ending cleanly after 3 of its 5 tets.
+        BadCase{"bad_truncated_node.ele", "bad_truncated_node.node", ":10: expected '<id> <x> <y> <z>'", ""},
+        BadCase{"bad_truncated_ele.node", "bad_truncated_ele.ele", ":5: expected an id and 4 node ids", ""},
+        BadCase{"bad_short.node", "bad_short.ele", ":4: unexpected end of file",
+                "the header (line 1) declares 5 tetrahedra, only 3 present"},
+        // 1-based points, a tet on node 0 (the off-by-one of a 0-based .ele).
+        BadCase{"bad_index0.node", "bad_index0.ele", ":6: tetrahedron 5 refers to node 0, which is not defined",
+                "bad_index0.node"}),
     [](const auto& info) { return test_name(info.param.file); });
 
 INSTANTIATE_TEST_SUITE_P(
