@@ -1,7 +1,8 @@
 // `pliant render SCENE|MESH -o OUT.png`: one picture. A scene file is shown in its rest state
 // (the world is built, never stepped), with its fixed and driven regions and probes marked; a
 // volume mesh file (e.g. a .vtu frame of a run, whose points are already displaced) is shown as
-// stored, coloured by displacement when its rest state is given with --rest.
+// stored, coloured by the displacement it stores (a run's .vtu files do; else --rest gives the
+// rest state) or by its stored von Mises stress, with its time when a .pvd series lists it.
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -55,14 +56,20 @@ int command_render(const RenderArgs& a) {
     const TetMesh mesh = read_tet_mesh(a.input);
     std::optional<TetMesh> rest;
     if (!a.rest.empty()) rest = read_tet_mesh(a.rest);
+    // A run's .vtu stores its displacement and von Mises fields, and its .pvd the time.
+    const raster::StoredFields stored = raster::read_stored_fields(a.input, mesh);
+    const bool has_disp = rest || !stored.displacement.empty();
     frame = raster::frame_from_mesh(mesh, fs::path(a.input).filename().string(),
-                                    field.value_or(rest ? raster::Field::displacement : raster::Field::none),
-                                    rest ? &*rest : nullptr);
+                                    field.value_or(has_disp ? raster::Field::displacement : raster::Field::none),
+                                    rest ? &*rest : nullptr, &stored);
+    if (!a.quiet && !stored.note.empty()) fmt::print(stderr, "pliant: note: {}\n", stored.note);
   }
   raster::Renderer renderer;
   const raster::Image image = renderer.render(frame, ro);
   raster::write_png(image, out);
-  if (!a.quiet) fmt::print("wrote {} ({}x{}, {})\n", out.string(), image.width(), image.height(), to_string(frame.field));
+  if (!a.quiet)
+    fmt::print("wrote {} ({}x{}, {}{})\n", out.string(), image.width(), image.height(), to_string(frame.field),
+               frame.has_time ? fmt::format(", t = {:.4g} s", frame.time) : "");
   return 0;
 }
 
@@ -74,11 +81,11 @@ Command add_render_command(CLI::App& app) {
   sub->add_option("INPUT", a->input, "Scene file (.json) or volume mesh (.vtu, .vtk, .msh, .node/.ele)")->required();
   sub->add_option("--output,-o", a->output, "PNG file to write (default: INPUT's name with .png, here)");
   sub->add_option("--field", a->field,
-                  "displacement, von_mises or none (default: none; displacement for a mesh with --rest)");
+                  "displacement, von_mises or none (default: none for a scene; for a mesh, displacement when it stores one or --rest is given)");
   sub->add_option("--size", a->size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
   sub->add_option("--camera", a->camera, "scene (the scene's camera block, else auto), auto, front, side or top")
       ->capture_default_str();
-  sub->add_option("--rest", a->rest, "For a mesh: its rest state (same nodes), to colour by displacement");
+  sub->add_option("--rest", a->rest, "For a mesh: its rest state (same nodes), to colour by displacement when the file stores none");
   sub->add_flag("--quiet,-q", a->quiet, "Print nothing");
   return {sub, [a] { return command_render(*a); }};
 }

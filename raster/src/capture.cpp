@@ -215,15 +215,20 @@ Frame capture(const World& world, Field field, CaptureCache* cache) {
   return f;
 }
 
-Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field, const TetMesh* rest) {
-  if (field == Field::von_mises)
-    throw InputError(fmt::format("{}: --field von_mises needs a material and a rest state; a mesh file alone gives only "
-                                 "displacement (with a rest mesh) or none",
-                                 name));
-  if (field == Field::displacement && !rest)
-    throw InputError(fmt::format("{}: --field displacement needs the rest state of the mesh (e.g. the series' first "
-                                 "frame, --rest FILE)",
-                                 name));
+Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field, const TetMesh* rest,
+                      const StoredFields* stored) {
+  const bool stored_disp = stored && stored->displacement.size() == 3 * mesh.node_count() && mesh.node_count() > 0;
+  const bool stored_vm = stored && stored->von_mises.size() == mesh.tet_count() && mesh.tet_count() > 0;
+  const std::string why = stored && !stored->note.empty() ? fmt::format(" ({})", stored->note) : "";
+  if (field == Field::von_mises && !stored_vm)
+    throw InputError(fmt::format("{}: --field von_mises needs the file's \"von_mises\" cell field, as the .vtu files of "
+                                 "`pliant run` store it; this file has none{}; use --field {}",
+                                 name, why, stored_disp || rest ? "displacement or none" : "none (or displacement with --rest FILE)"));
+  if (field == Field::displacement && !rest && !stored_disp)
+    throw InputError(fmt::format("{}: --field displacement needs a \"displacement\" point field, as the .vtu files of "
+                                 "`pliant run` store it, or the rest state of the mesh (e.g. the series' first frame, "
+                                 "--rest FILE); this file has no such field{}",
+                                 name, why));
   if (rest && rest->node_count() != mesh.node_count())
     throw InputError(fmt::format("{}: the rest mesh has {} nodes, this one {}; they must be the same mesh", name,
                                  rest->node_count(), mesh.node_count()));
@@ -243,7 +248,8 @@ Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field,
     topo->triangles.push_back(t);
   }
   Frame f;
-  f.has_time = false;
+  f.has_time = stored && stored->time.has_value();
+  f.time = f.has_time ? *stored->time : 0.0;
   f.field = field;
   SurfaceBody body;
   body.topology = topo;
@@ -253,11 +259,24 @@ Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field,
     for (std::int32_t n : topo->source_node) {
       double d2 = 0;
       for (int k = 0; k < 3; ++k) {
-        const double d = mesh.points[3 * std::size_t(n) + k] - rest->points[3 * std::size_t(n) + k];
+        const std::size_t i = 3 * std::size_t(n) + k;
+        const double d = rest ? mesh.points[i] - rest->points[i] : stored->displacement[i];
         d2 += d * d;
       }
       body.values.push_back(float(std::sqrt(d2)));
     }
+  } else if (field == Field::von_mises) {
+    // Per-tet von Mises stress averaged over the tets around each surface node, as capture() does.
+    std::vector<double> sum(topo->source_node.size(), 0.0);
+    std::vector<int> count(topo->source_node.size(), 0);
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t)
+      for (int a = 0; a < 4; ++a) {
+        const std::int32_t s = index[std::size_t(mesh.tets[t][a])];
+        if (s < 0 || !std::isfinite(stored->von_mises[t])) continue;
+        sum[std::size_t(s)] += stored->von_mises[t];
+        ++count[std::size_t(s)];
+      }
+    for (std::size_t s = 0; s < sum.size(); ++s) body.values.push_back(count[s] ? float(sum[s] / count[s]) : 0.f);
   }
   f.bodies.push_back(std::move(body));
   return f;

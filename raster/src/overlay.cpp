@@ -15,8 +15,6 @@ namespace pliant::raster {
 namespace {
 const Rgba kInk{24, 26, 32, 255};
 const Rgba kProbe{214, 39, 40, 255};
-const Rgba kFixed{26, 26, 31, 255};
-const Rgba kDriven{255, 128, 0, 255};
 }  // namespace
 
 void draw_colour_bar(Image& img, int x, int y, int w, int h, Field field, std::array<double, 2> range, int s,
@@ -116,14 +114,21 @@ void draw_legend(Image& img, int x, int y, int s, bool fixed, bool driven, bool 
     draw_text(img, x, y, text, ts);
     x += text_width(text, s) + 14 * s;
   };
+  // The marks as the renderer draws them (GL points, square under multisampling): a bright
+  // square over a dark outline.
+  auto mark = [&](Rgba c) {
+    const int d = int(std::lround(mark_diameter(s))), o = int(std::lround(mark_outline(s)));
+    const int top = int(std::lround(cy - d / 2.0));
+    img.fill_rect(x, top - o, d + 2 * o, d + 2 * o, kMarkOutline);
+    img.fill_rect(x + o, top, d, d, c);
+    x += d + 2 * o + 3 * s;
+  };
   if (fixed) {
-    img.disc(x + 2.5 * s, cy, 2.2 * s, kFixed);
-    x += 8 * s;
+    mark(kFixedColour);
     item("fixed");
   }
   if (driven) {
-    img.disc(x + 2.5 * s, cy, 2.2 * s, kDriven);
-    x += 8 * s;
+    mark(kDrivenColour);
     item("prescribed motion");
   }
   if (probes) {

@@ -1,6 +1,7 @@
 // Private to pliant_raster: what is drawn on the CPU over a rendered picture (time, title,
 // colour bar, probe markers with names, legend).
 #pragma once
+#include <algorithm>
 #include <array>
 
 #include "pliant/raster/image.hpp"
@@ -8,6 +9,16 @@
 #include "view_math.hpp"
 
 namespace pliant::raster::detail {
+
+// Colours of the node marks, shared by the GL pass (renderer.cpp) and the legend: bright, off
+// the viridis map (which runs from dark purple through teal and green to yellow), each over a
+// dark outline.
+inline constexpr Rgba kFixedColour{255, 40, 200, 255};   // magenta
+inline constexpr Rgba kDrivenColour{255, 128, 0, 255};   // orange
+inline constexpr Rgba kMarkOutline{20, 20, 26, 255};
+// Pixels: the bright dot's diameter and the width of the outline around it, in text scale s.
+inline double mark_diameter(int s) { return std::max(4.0, 3.5 * s); }
+inline double mark_outline(int s) { return std::max(1.5, 1.0 * s); }
 
 void draw_overlays(Image& image, const Frame& frame, const RenderOptions& options, const Layout& layout,
                    const Camera& camera, const std::array<double, 2>& range);

@@ -151,7 +151,39 @@ void marker(Image& img, int shape, double x, double y, double r, Rgba c) {
 
 }  // namespace
 
-Image render_plot(const Plot& plot) {
+namespace {
+
+// Series drawn over an earlier one (same style, the same points in the same order, each within
+// half a pixel of it at this picture size): the index of that earlier series, else their own
+// index. `exact[i]`: series i's points are identical to its leader's, not only close.
+std::vector<std::size_t> coincident_leaders(const Plot& plot, const Scale& sx, const Scale& sy, std::vector<bool>& exact) {
+  std::vector<std::size_t> leader(plot.series.size());
+  exact.assign(plot.series.size(), true);
+  const double tx = 0.5 / plot.width, ty = 0.5 / plot.height;  // the plot area is smaller than the picture
+  for (std::size_t i = 0; i < plot.series.size(); ++i) {
+    leader[i] = i;
+    const PlotSeries& a = plot.series[i];
+    for (std::size_t j = 0; j < i && leader[i] == i; ++j) {
+      if (leader[j] != j) continue;
+      const PlotSeries& b = plot.series[j];
+      if (a.style != b.style || a.x.size() != b.x.size() || a.x.size() != a.y.size() || b.x.size() != b.y.size()) continue;
+      bool close = true, same = true, any = false;
+      for (std::size_t k = 0; k < a.x.size() && close; ++k) {
+        const bool ua = usable(a.x[k], plot.x.log) && usable(a.y[k], plot.y.log);
+        const bool ub = usable(b.x[k], plot.x.log) && usable(b.y[k], plot.y.log);
+        close = ua == ub && (!ua || (std::abs(sx.to_unit(a.x[k]) - sx.to_unit(b.x[k])) <= tx &&
+                                     std::abs(sy.to_unit(a.y[k]) - sy.to_unit(b.y[k])) <= ty));
+        same = same && (!ua || (a.x[k] == b.x[k] && a.y[k] == b.y[k]));
+        any = any || ua;
+      }
+      if (close && any) leader[i] = j, exact[i] = same;
+    }
+  }
+  return leader;
+}
+
+Image draw_plot(const Plot& plot, bool legend_below, PlotLayout& out) {
+  out = {};
   if (plot.width < 64 || plot.height < 64 || plot.width > 16384 || plot.height > 16384)
     throw InputError(fmt::format("plot \"{}\": size {}x{} must be in [64, 16384] pixels", plot.title, plot.width, plot.height));
   std::vector<double> xs, ys;
@@ -180,17 +212,35 @@ Image render_plot(const Plot& plot) {
   const int top = (plot.title.empty() ? 8 * s : 20 * s);
   // Room on the right for half of the last x tick label, which is centred on the plot's edge.
   const int right = std::max(14 * s, (tx.empty() ? 0 : text_width(format_number(tx.back(), 3), s) / 2) + 4 * s);
+  // Series that coincide (identical points, or within half a pixel) are drawn once, in the first
+  // one's style, and named together in one legend entry, "linear = corotational" (identical) or
+  // "linear ≈ corotational" (indistinguishable here): the others could not be seen.
+  std::vector<bool> exact;
+  const std::vector<std::size_t> leader = coincident_leaders(plot, sx, sy, exact);
+  std::vector<std::vector<std::string>> names(plot.series.size());
+  std::vector<bool> all_exact(plot.series.size(), true);
+  for (std::size_t i = 0; i < plot.series.size(); ++i) {
+    const std::string& l = plot.series[i].label;
+    auto& v = names[leader[i]];
+    if (!l.empty() && std::find(v.begin(), v.end(), l) == v.end()) v.push_back(l);
+    if (!exact[i]) all_exact[leader[i]] = false;
+  }
+  std::vector<std::string> entry_label(plot.series.size());
+  for (std::size_t i = 0; i < plot.series.size(); ++i)
+    for (const std::string& l : names[i])
+      entry_label[i] += (entry_label[i].empty() ? "" : all_exact[i] ? " = " : " \u2248 ") + l;
   // The legend's entries, measured first: below the plot they take room from it.
   std::vector<std::size_t> listed;
   int lw = 0;
   for (std::size_t i = 0; plot.legend && i < plot.series.size(); ++i)
-    if (!plot.series[i].label.empty()) {
+    if (leader[i] == i && !entry_label[i].empty()) {
       listed.push_back(i);
-      lw = std::max(lw, text_width(plot.series[i].label, s));
+      lw = std::max(lw, text_width(entry_label[i], s));
+      out.legend_labels.push_back(entry_label[i]);
     }
   const int row = text_height(s) + 4 * s, sample = 22 * s;
   const int entry_w = 6 * s + sample + 6 * s + lw + 8 * s;
-  const bool below = !listed.empty() && plot.legend_place == LegendPlace::below;
+  const bool below = !listed.empty() && legend_below;
   int legend_cols = 1, legend_h = 0;
   if (below) {
     legend_cols = std::clamp((W - 16 * s) / entry_w, 1, int(listed.size()));
@@ -198,6 +248,8 @@ Image render_plot(const Plot& plot) {
   }
   const int bottom = 6 * s + text_height(s) + 6 * s + text_height(s) + 8 * s + legend_h;
   const double L = left, T = top, R = W - right, B = H - bottom;
+  out.area = {int(L), int(T), int(R), int(B)};
+  out.legend_below = below;
   auto px = [&](double v) { return L + sx.to_unit(v) * (R - L); };
   auto py = [&](double v) { return B - sy.to_unit(v) * (B - T); };
 
@@ -249,7 +301,8 @@ Image render_plot(const Plot& plot) {
 
   struct Ink {
     double x, y;
-    int weight;
+    int weight;      // 8: a data point, 1: a piece of line
+    double r = 0;    // how far its ink reaches (marker radius or half the line width), pixels
   };
   std::vector<Ink> ink;  // where the series drew
   struct PointLabel {
@@ -260,7 +313,9 @@ Image render_plot(const Plot& plot) {
   std::vector<PointLabel> pending;  // drawn once every marker is known, so that they avoid them
   for (std::size_t si = 0; si < plot.series.size(); ++si) {
     const PlotSeries& s_ = plot.series[si];
-    const Rgba c = s_.colour.value_or(palette(int(si)));
+    const std::size_t lead = leader[si];
+    const Rgba c = plot.series[lead].colour.value_or(palette(int(lead)));
+    const PlotSeries& drawn = plot.series[lead];  // a coincident series is drawn once, as its leader
     const bool lines = s_.style != SeriesStyle::scatter, marks = s_.style != SeriesStyle::line;
     bool have_prev = false;
     double qx = 0, qy = 0;
@@ -270,18 +325,31 @@ Image render_plot(const Plot& plot) {
         continue;
       }
       const double x = px(s_.x[i]), y = py(s_.y[i]);
+      const bool inside = x >= L - 0.5 && x <= R + 0.5 && y >= T - 0.5 && y <= B + 0.5;
+      // A follower of a coincident group draws nothing but its own point labels.
+      if (lead != si) {
+        const std::string* own = i < s_.point_labels.size() && !s_.point_labels[i].empty() ? &s_.point_labels[i] : nullptr;
+        const bool repeats = own && i < drawn.point_labels.size() && drawn.point_labels[i] == *own;
+        if (inside && own && !repeats) pending.push_back({x, y, drawn.marker_size * k, own, c});
+        continue;
+      }
       if (lines && have_prev) {
         double x0 = qx, y0 = qy, x1 = x, y1 = y;
         if (clip(x0, y0, x1, y1, L, T, R, B)) {
           img.line(x0, y0, x1, y1, c, s_.line_width * k);
           // Every ~6 pixels of the line, for placing the legend.
           const int n = std::min(400, 1 + int(std::hypot(x1 - x0, y1 - y0) / 6));
-          for (int j = 0; j <= n; ++j) ink.push_back({x0 + (x1 - x0) * j / n, y0 + (y1 - y0) * j / n, 1});
+          for (int j = 0; j <= n; ++j)
+            ink.push_back({x0 + (x1 - x0) * j / n, y0 + (y1 - y0) * j / n, 1, s_.line_width * k / 2});
         }
       }
-      const bool inside = x >= L - 0.5 && x <= R + 0.5 && y >= T - 0.5 && y <= B + 0.5;
       if (marks && inside) marker(img, int(si), x, y, s_.marker_size * k, c);
-      if (inside) ink.push_back({x, y, 8});  // a point weighs more than a piece of line
+      if (inside) {
+        // A marker reaches up to 1.75 times its radius (diamonds: their round-capped strokes).
+        const double reach = marks ? 1.8 * s_.marker_size * k : s_.line_width * k / 2;
+        ink.push_back({x, y, 8, reach});
+        out.points.push_back({x, y, reach, si});
+      }
       if (inside && i < s_.point_labels.size() && !s_.point_labels[i].empty())
         pending.push_back({x, y, s_.marker_size * k, &s_.point_labels[i], c});
       qx = x;
@@ -324,7 +392,7 @@ Image render_plot(const Plot& plot) {
     const double cy = y + text_height(s) / 2.0, x0 = x + 6 * s, x1 = x0 + sample;
     if (s_.style != SeriesStyle::scatter) img.line(x0, cy, x1, cy, c, s_.line_width * k);
     if (s_.style != SeriesStyle::line) marker(img, int(series), (x0 + x1) / 2, cy, s_.marker_size * k, c);
-    draw_text(img, int(x1) + 6 * s, y, s_.label, ts);
+    draw_text(img, int(x1) + 6 * s, y, entry_label[series], ts);
   };
   const Rgba legend_frame{180, 182, 190, 255};
   if (below) {  // in rows of legend_cols entries under the x axis title, centred
@@ -332,30 +400,51 @@ Image render_plot(const Plot& plot) {
     const int bw = legend_cols * entry_w, bh = rows * row + 4 * s;
     const int bx = std::max(2 * s, (W - bw) / 2), by = H - legend_h + 4 * s;
     img.frame_rect(bx, by, bw, bh, legend_frame, 1);
+    out.legend = {bx, by, bw, bh};
     for (std::size_t r = 0; r < listed.size(); ++r)
       draw_entry(listed[r], bx + int(r) % legend_cols * entry_w, by + 4 * s + int(r) / legend_cols * row);
   } else if (!listed.empty()) {
     const int bw = entry_w, bh = int(listed.size()) * row + 6 * s;
-    // The corner of the plot area where the box hides the least data: top right unless it
-    // covers more points or lines than another corner (then top left, bottom right, bottom left).
-    const int margin = 6 * s, pad = int(std::ceil(4 * k)) + 2;
+    // The corner of the plot area where the box hides the fewest data points, then the least
+    // of the lines: top right, else top left, bottom right, bottom left. When every corner
+    // hides a point, render_plot draws the plot again with the legend below it.
+    const int margin = 6 * s;
     const int corners[4][2] = {{int(R) - bw - margin, int(T) + margin}, {int(L) + margin, int(T) + margin},
                                {int(R) - bw - margin, int(B) - bh - margin}, {int(L) + margin, int(B) - bh - margin}};
     int bx = corners[0][0], by = corners[0][1];
-    long best = -1;
+    long best_points = -1, best_lines = 0;
     for (const auto& corner : corners) {
-      long hidden = 0;
+      long points = 0, lines = 0;
       for (const Ink& p : ink)
-        if (p.x >= corner[0] - pad && p.x <= corner[0] + bw + pad && p.y >= corner[1] - pad && p.y <= corner[1] + bh + pad)
-          hidden += p.weight;
-      if (best < 0 || hidden < best) best = hidden, bx = corner[0], by = corner[1];
+        if (const double pad = p.r + 2;
+            p.x >= corner[0] - pad && p.x <= corner[0] + bw + pad && p.y >= corner[1] - pad && p.y <= corner[1] + bh + pad)
+          (p.weight > 1 ? points : lines) += 1;
+      if (best_points < 0 || points < best_points || (points == best_points && lines < best_lines))
+        best_points = points, best_lines = lines, bx = corner[0], by = corner[1];
     }
+    out.legend = {bx, by, bw, bh};
+    out.legend_hides_points = best_points > 0;
+    if (out.legend_hides_points) return img;  // drawn again, legend below
     img.fill_rect(bx, by, bw, bh, {255, 255, 255, 255}, 0.9);
     img.frame_rect(bx, by, bw, bh, legend_frame, 1);
     for (std::size_t r = 0; r < listed.size(); ++r) draw_entry(listed[r], bx, by + 4 * s + int(r) * row);
   }
   return img;
 }
+
+}  // namespace
+
+Image render_plot(const Plot& plot, PlotLayout* layout) {
+  PlotLayout local;
+  PlotLayout& out = layout ? *layout : local;
+  Image img = draw_plot(plot, plot.legend_place == LegendPlace::below, out);
+  if (out.legend_hides_points) {  // no corner of the plot area is free of data: below the plot
+    img = draw_plot(plot, true, out);
+  }
+  return img;
+}
+
+Image render_plot(const Plot& plot) { return render_plot(plot, nullptr); }
 
 void write_plot_png(const Plot& plot, const std::filesystem::path& path) { write_png(render_plot(plot), path, 6); }
 

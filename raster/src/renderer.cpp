@@ -313,19 +313,24 @@ struct Renderer::Impl {
     glDisable(GL_LIGHTING);
   }
 
+  // Fixed and driven nodes as round points in a bright colour over a dark outline (a larger
+  // point drawn first), so that they show on every colour of the map, dark purple to yellow,
+  // and on the plain body colours. The colours are overlay.cpp's (the legend's).
   void draw_marks(const SurfaceBody& body, int text_scale) {
     const auto& topo = *body.topology;
-    glPointSize(float(std::max(2.0, 2.5 * text_scale)));
+    const float size = float(detail::mark_diameter(text_scale)), outline = float(detail::mark_outline(text_scale));
     glEnable(GL_POINT_SMOOTH);
-    auto points = [&](const std::vector<std::int32_t>& nodes, float r, float g, float b) {
+    auto points = [&](const std::vector<std::int32_t>& nodes, Rgba c, float px) {
       if (nodes.empty()) return;
-      glColor3f(r, g, b);
+      glPointSize(px);
+      glColor3ub(c.r, c.g, c.b);
       glBegin(GL_POINTS);
       for (std::int32_t n : nodes) glVertex3fv(&body.points[3 * std::size_t(n)]);
       glEnd();
     };
-    points(topo.fixed, 0.10f, 0.10f, 0.12f);
-    points(topo.driven, 1.0f, 0.50f, 0.0f);
+    for (const auto* nodes : {&topo.fixed, &topo.driven}) points(*nodes, detail::kMarkOutline, size + 2 * outline);
+    points(topo.fixed, detail::kFixedColour, size);
+    points(topo.driven, detail::kDrivenColour, size);
     glDisable(GL_POINT_SMOOTH);
   }
 

@@ -5,6 +5,8 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <filesystem>
 
 #include "pliant/error.hpp"
@@ -188,6 +190,168 @@ TEST(Plot, LegendBelowTheAxisTitle) {
   const Image t = render_plot(p);
   EXPECT_GT(ink(t, 0, 0, 800, 38, Rgba{255, 255, 255, 255}), 300u);  // above the plot area (y = 40)
   EXPECT_EQ(ink(t, 0, 0, 2, 38, Rgba{255, 255, 255, 255}) + ink(t, 798, 0, 800, 38, Rgba{255, 255, 255, 255}), 0u);
+}
+
+// No data point (its marker included) under the legend box, and no legend ink over a point.
+void expect_legend_clear_of_points(const Plot& p, const std::string& what) {
+  PlotLayout layout;
+  const Image img = render_plot(p, &layout);
+  EXPECT_EQ(img.width(), p.width) << what;
+  EXPECT_EQ(img.height(), p.height) << what;
+  ASSERT_TRUE(layout.legend.has_value()) << what;
+  ASSERT_FALSE(layout.points.empty()) << what;
+  const auto [lx, ly, lw, lh] = *layout.legend;
+  for (const auto& pt : layout.points) {
+    const bool apart = pt.x + pt.radius < lx || pt.x - pt.radius > lx + lw || pt.y + pt.radius < ly || pt.y - pt.radius > ly + lh;
+    EXPECT_TRUE(apart) << what << ": point (" << pt.x << ", " << pt.y << ") of series " << pt.series << " under the legend at ("
+                       << lx << ", " << ly << ", " << lw << "x" << lh << ")";
+  }
+  // The pixels agree: when the legend went below the plot, its outline colour appears nowhere
+  // in the plot area.
+  const Rgba frame{180, 182, 190, 255};
+  if (layout.legend_below) {
+    const auto [x0, y0, x1, y1] = layout.area;
+    EXPECT_LE(y1, ly) << what;
+    std::size_t n = 0;
+    for (int y = y0; y <= y1; ++y)
+      for (int x = x0; x <= x1; ++x) n += img.get(x, y) == frame;
+    EXPECT_EQ(n, 0u) << what;
+  }
+}
+
+TEST(Plot, LegendGoesBelowWhenEveryCornerHasData) {
+  // The data of docs/images/accuracy/volume_mesh-convergence.png, where the legend in the top
+  // right corner hid the springs points: every corner of this plot has points.
+  Plot p;
+  p.title = "compression_volume: convergence of volume_change (vs analytic)";
+  p.x = {"mesh: number of tets", "", true};
+  p.y = {"|relative error| of volume_change", "%", true};
+  const std::vector<double> tets = {160, 1280, 10240, 81920};
+  p.series.push_back({"model=linear, poisson=0.49", tets, {0.6, 0.26, 0.24, 0.23}, SeriesStyle::line_and_markers});
+  p.series.push_back({"model=corotational, poisson=0.49", tets, {2.2, 1.2, 0.54, 0.3}, SeriesStyle::line_and_markers});
+  p.series.push_back({"model=stvk, poisson=0.49", tets, {34, 32, 30, 29}, SeriesStyle::line_and_markers});
+  p.series.push_back({"model=springs, poisson=0.49", tets, {3300, 3250, 3200, 3180}, SeriesStyle::line_and_markers});
+  PlotLayout layout;
+  render_plot(p, &layout);
+  EXPECT_TRUE(layout.legend_below);
+  EXPECT_EQ(layout.points.size(), 16u);
+  expect_legend_clear_of_points(p, "volume_mesh");
+  write_plot_png(p, scratch() / "legend_below.png");
+  if (const char* keep = std::getenv("PLIANT_KEEP_PLOTS")) write_plot_png(p, fs::path(keep) / "legend_below.png");
+
+  // Points in all four corners on linear axes, with every marker shape.
+  Plot q;
+  q.x = {"x", "m"};
+  q.y = {"y", "m"};
+  for (int i = 0; i < 4; ++i) {
+    std::vector<double> xs, ys;
+    for (int j = 0; j <= 10; ++j) xs.push_back(j), ys.push_back(i % 2 ? 10 - j : j + 0.3 * i);
+    q.series.push_back({"series " + std::to_string(i), xs, ys, SeriesStyle::line_and_markers});
+  }
+  expect_legend_clear_of_points(q, "corners");
+  // A corner that is free keeps the legend inside.
+  Plot r;
+  r.x = {"x", "m"};
+  r.y = {"y", "m"};
+  r.series.push_back({"low", {0, 1, 2, 3, 4}, {0, 0.1, 0.2, 0.3, 0.4}, SeriesStyle::scatter});
+  r.y.max = 4;
+  PlotLayout inside;
+  render_plot(r, &inside);
+  EXPECT_FALSE(inside.legend_below);
+  expect_legend_clear_of_points(r, "free corner");
+}
+
+TEST(Plot, LegendNeverHidesAPointOfRandomData) {
+  std::uint32_t seed = 12345;
+  auto next = [&] {  // a small LCG: the same data on every machine
+    seed = seed * 1664525u + 1013904223u;
+    return (seed >> 8) / double(1u << 24);
+  };
+  for (int trial = 0; trial < 40; ++trial) {
+    Plot p;
+    p.x = {"x", "m", trial % 3 == 0};
+    p.y = {"y", "Pa", trial % 2 == 0};
+    p.width = trial % 4 == 0 ? 400 : 800;
+    p.height = trial % 4 == 0 ? 300 : 600;
+    const int n_series = 1 + trial % 4, n_points = 2 + int(next() * 12);
+    for (int k = 0; k < n_series; ++k) {
+      std::vector<double> xs, ys;
+      for (int j = 0; j < n_points; ++j) {
+        xs.push_back(p.x.log ? std::pow(10.0, 4 * next()) : 10 * next());
+        ys.push_back(p.y.log ? std::pow(10.0, 3 * next()) : 10 * next());
+      }
+      p.series.push_back({"series number " + std::to_string(k), xs, ys,
+                          k % 2 ? SeriesStyle::scatter : SeriesStyle::line_and_markers});
+    }
+    expect_legend_clear_of_points(p, "trial " + std::to_string(trial));
+  }
+}
+
+TEST(Plot, CoincidentSeriesShareOneLegendEntry) {
+  Plot p;
+  p.x = {"cells", "", true};
+  p.y = {"error", "%", true};
+  const std::vector<double> x = {10, 20, 40}, same = {5, 2.5, 1.2};
+  p.series.push_back({"linear", x, same, SeriesStyle::line_and_markers});
+  p.series.push_back({"corotational", x, same, SeriesStyle::line_and_markers});
+  p.series.push_back({"springs", x, {50, 40, 30}, SeriesStyle::line_and_markers});
+  p.series.push_back({"stvk", x, same, SeriesStyle::line_and_markers});
+  p.series.push_back({"linear", x, {7, 6, 5}, SeriesStyle::scatter});  // same points as none
+  PlotLayout layout;
+  const Image img = render_plot(p, &layout);
+  EXPECT_THAT(layout.legend_labels, ::testing::ElementsAre("linear = corotational = stvk", "springs", "linear"));
+  // Drawn once, in the first one's colour: the colours of the hidden ones are nowhere.
+  auto has = [&](Rgba want) {
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x)
+        if (img.get(x, y) == want) return true;
+    return false;
+  };
+  EXPECT_TRUE(has(palette(0)));
+  EXPECT_FALSE(has(palette(1)));
+  EXPECT_TRUE(has(palette(2)));
+  EXPECT_FALSE(has(palette(3)));
+  EXPECT_TRUE(has(palette(4)));
+  // Not coincident: another style, or one point different.
+  p.series[1].style = SeriesStyle::scatter;
+  p.series[3].y[2] = 1.3;
+  render_plot(p, &layout);
+  EXPECT_EQ(layout.legend_labels.size(), 5u);
+  if (const char* keep = std::getenv("PLIANT_KEEP_PLOTS")) {
+    p.series[1].style = SeriesStyle::line_and_markers;
+    p.series[3].y[2] = 1.2;
+    write_plot_png(p, fs::path(keep) / "coincident.png");
+  }
+  // Close enough to be one line at this size (the slender bar study: linear and corotational
+  // differ in the 5th digit): drawn once, named "a ≈ b"; the same data on a taller axis range
+  // where they part by more than half a pixel stay apart.
+  Plot near;
+  near.x = {"mesh: number of tets", ""};
+  near.y = {"|relative error|", "%"};
+  near.series.push_back({"model=linear", {60, 120}, {0.859656189, 0.458648368}, SeriesStyle::line_and_markers});
+  near.series.push_back({"model=corotational", {60, 120}, {0.859670445, 0.458495598}, SeriesStyle::line_and_markers});
+  const Image ni = render_plot(near, &layout);
+  EXPECT_THAT(layout.legend_labels, ::testing::ElementsAre("model=linear \u2248 model=corotational"));
+  auto present = [](const Image& img, Rgba want) {
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x)
+        if (img.get(x, y) == want) return true;
+    return false;
+  };
+  EXPECT_FALSE(present(ni, palette(1)));
+  near.y.min = 0.4586;
+  near.y.max = 0.4587;
+  near.series[0].y = {0.45864, 0.45865};
+  near.series[1].y = {0.45863, 0.45865};
+  render_plot(near, &layout);
+  EXPECT_EQ(layout.legend_labels.size(), 2u);
+  if (const char* keep = std::getenv("PLIANT_KEEP_PLOTS")) {
+    near.y.min.reset();
+    near.y.max.reset();
+    near.series[0].y = {0.859656189, 0.458648368};
+    near.series[1].y = {0.859670445, 0.458495598};
+    write_plot_png(near, fs::path(keep) / "near.png");
+  }
 }
 
 TEST(Plot, BadSeriesAreErrors) {

@@ -17,11 +17,13 @@
 #include <fstream>
 
 #include "pliant/error.hpp"
+#include "pliant/mesh_io.hpp"
 #include "pliant/raster/image.hpp"
 #include "pliant/raster/recorder.hpp"
 #include "pliant/raster/render.hpp"
 #include "pliant/run.hpp"
 #include "pliant/scene.hpp"
+#include "pliant/vtu_writer.hpp"
 #include "pliant/world.hpp"
 
 namespace {
@@ -292,6 +294,37 @@ TEST(Render, BadNamesAndValuesAreClearErrors) {
   EXPECT_NO_THROW(frame_from_mesh(m, "m.vtu", Field::none));
 }
 
+// Fixed nodes are drawn bright (magenta over a dark outline), on the dark low end of the colour
+// map too, and the legend shows the same colour.
+TEST(Render, FixedMarksStandOutAndMatchTheLegend) {
+  RenderOptions o;
+  o.width = 640;
+  o.height = 360;
+  const Image img = renderer().render(bent_beam(), o);
+  const int s = 1;  // text scale at 360 px
+  auto magenta = [](Rgba c) { return c.r > 200 && c.g < 120 && c.b > 140; };
+  const Rgba exact{255, 40, 200, 255};  // the fixed marks' colour, in the picture and in the legend
+  std::size_t on_body = 0, in_legend = 0, exact_body = 0, exact_legend = 0;
+  const int legend_top = o.height - 14 * s;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) {
+      const bool legend = y >= legend_top && x < 120;
+      if (magenta(img.get(x, y))) ++(legend ? in_legend : on_body);
+      if (img.get(x, y) == exact) ++(legend ? exact_legend : exact_body);
+    }
+  EXPECT_GT(on_body, 20u) << "fixed marks on the clamped end";
+  EXPECT_GT(in_legend, 3u) << "the legend's fixed mark";
+  EXPECT_GT(exact_body, 5u);
+  EXPECT_GT(exact_legend, 3u);
+  // Nothing else in the picture is magenta: without marks there is none.
+  o.marks = false;
+  const Image plain = renderer().render(bent_beam(), o);
+  std::size_t none = 0;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x) none += magenta(plain.get(x, y));
+  EXPECT_EQ(none, 0u);
+}
+
 // ---- scene camera block ----
 
 std::string scene_error(const std::string& camera) {
@@ -477,6 +510,132 @@ TEST(Recorder, BadOptionsAreRefused) {
   ro.png_every = 0.1;
   ro.width = 10;
   EXPECT_THROW(FrameRecorder(scene, ro, 1.0), InputError);
+}
+
+// ---- stored states: a run's .vtu files ----
+
+TEST(StoredState, RunFramesCarryDisplacementVonMisesAndTime) {
+  SceneDef scene = small_scene();
+  scene.output.vtu_every = 0.01;
+  RunOptions opt;
+  opt.out_dir = scratch("stored_run");
+  run_scene(scene, opt);
+  const fs::path first = opt.out_dir / "vtu" / "b_00000.vtu", last = opt.out_dir / "vtu" / "b_00002.vtu";
+  const TetMesh rest = read_tet_mesh(first), mesh = read_tet_mesh(last);
+  const StoredFields f = read_stored_fields(last, mesh);
+  EXPECT_EQ(f.displacement.size(), 3 * mesh.node_count());
+  EXPECT_EQ(f.von_mises.size(), mesh.tet_count());
+  ASSERT_TRUE(f.time.has_value());
+  EXPECT_NEAR(*f.time, 0.02, 1e-3);  // from series.pvd, one folder up: the step at or after 0.02 s
+  EXPECT_TRUE(f.note.empty()) << f.note;
+  const double t1 = series_time(opt.out_dir / "vtu" / "b_00001.vtu").value_or(-1);
+  EXPECT_NEAR(t1, 0.01, 1e-3);
+  EXPECT_LT(t1, *f.time);
+  EXPECT_EQ(series_time(first), 0.0);
+  EXPECT_FALSE(series_time(scratch("stored_elsewhere") / "b_00001.vtu").has_value());
+
+  // The stored displacement is the points minus the first frame's (the rest state).
+  const Frame stored = frame_from_mesh(mesh, "b", Field::displacement, nullptr, &f);
+  const Frame with_rest = frame_from_mesh(mesh, "b", Field::displacement, &rest);
+  ASSERT_EQ(stored.bodies[0].values.size(), with_rest.bodies[0].values.size());
+  EXPECT_GT(max_value(stored), 1e-4);  // the driven end moved 1 cm
+  for (std::size_t i = 0; i < stored.bodies[0].values.size(); ++i)
+    EXPECT_NEAR(stored.bodies[0].values[i], with_rest.bodies[0].values[i], 1e-6 * max_value(stored));
+  EXPECT_TRUE(stored.has_time);
+  EXPECT_EQ(stored.time, *f.time);
+  EXPECT_FALSE(with_rest.has_time);
+  const Frame vm = frame_from_mesh(mesh, "b", Field::von_mises, nullptr, &f);
+  EXPECT_GT(max_value(vm), 0.0);
+  EXPECT_EQ(vm.bodies[0].values.size(), vm.bodies[0].topology->source_node.size());
+
+  // The time is printed on the picture: the top line differs from the same frame without it.
+  RenderOptions o;
+  o.width = 320;
+  o.height = 180;
+  o.title = "b_00002.vtu";
+  Frame timeless = stored;
+  timeless.has_time = false;
+  const Image a = renderer().render(stored, o), b = renderer().render(timeless, o);
+  std::size_t differ = 0;
+  for (int y = 0; y < 12; ++y)
+    for (int x = 0; x < 120; ++x) differ += !(a.get(x, y) == b.get(x, y));
+  EXPECT_GT(differ, 20u);
+
+  // A mesh without fields: displacement needs --rest, von Mises cannot be had.
+  const StoredFields none = read_stored_fields(first, rest);  // t = 0: fields present, all zero
+  EXPECT_EQ(none.displacement.size(), 3 * rest.node_count());
+  const StoredFields empty;
+  try {
+    frame_from_mesh(mesh, "copy.vtu", Field::von_mises, nullptr, &empty);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("copy.vtu: --field von_mises needs the file's \"von_mises\" cell field"));
+  }
+  try {
+    frame_from_mesh(mesh, "copy.vtu", Field::displacement, nullptr, &empty);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("--rest FILE"));
+  }
+}
+
+TEST(StoredState, EveryInlineEncodingReadsBack) {
+  const TetMesh mesh = make_box_mesh({0, 0, 0}, {1, 0.5, 0.5}, {3, 2, 2}, 6);
+  std::vector<double> disp(3 * mesh.node_count()), vm(mesh.tet_count());
+  for (std::size_t i = 0; i < disp.size(); ++i) disp[i] = 1e-3 * std::sin(double(i)) / 3.0;
+  for (std::size_t t = 0; t < vm.size(); ++t) vm[t] = 1e3 + 17.25 * double(t) + 1.0 / 7.0;
+  for (VtuEncoding enc : {VtuEncoding::ascii, VtuEncoding::base64, VtuEncoding::base64_zlib}) {
+    const fs::path file = scratch("encodings") / ("m" + std::to_string(int(enc)) + ".vtu");
+    write_vtu(file, mesh.points, mesh.tets,
+              {{"displacement", 3, false, disp}, {"von_mises", 1, true, vm}, {"stress", 9, true, std::vector<double>(9 * vm.size(), 1.0)}},
+              enc);
+    const TetMesh back = read_tet_mesh(file);
+    const StoredFields f = read_stored_fields(file, back);
+    EXPECT_EQ(f.displacement, disp) << int(enc);
+    EXPECT_EQ(f.von_mises, vm) << int(enc);
+    EXPECT_FALSE(f.time.has_value());
+    EXPECT_TRUE(f.note.empty()) << f.note;
+  }
+  // A hand-written file: a time in field data, and a vertex no tet uses (dropped by the mesh
+  // reader), so that the fields no longer match the mesh: left out, with a note.
+  const fs::path file = scratch("encodings") / "hand.vtu";
+  auto write = [&](int points, const char* extra_point) {
+    std::ofstream out(file);
+    out << R"(<?xml version="1.0"?>
+<!-- a <Piece> in a comment is not one -->
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian">
+  <UnstructuredGrid>
+    <FieldData><DataArray type="Float64" Name="TimeValue" NumberOfTuples="1" format="ascii">0.25</DataArray></FieldData>
+    <Piece NumberOfPoints=")" << points << R"(" NumberOfCells="1">
+      <PointData><DataArray type="Float32" Name="displacement" NumberOfComponents="3" format="ascii">
+        0 0 0  0.001 0 0  0 0.002 0  0 0 0.003 )" << extra_point << R"(</DataArray></PointData>
+      <CellData><DataArray type="Float64" Name="von_mises" format="ascii">1500</DataArray></CellData>
+      <Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 0 1 0 0 0 1 )"
+        << (points == 5 ? "5 5 5" : "") << R"(</DataArray></Points>
+      <Cells>
+        <DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+        <DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+        <DataArray type="UInt8" Name="types" format="ascii">10</DataArray>
+      </Cells>
+    </Piece>
+  </UnstructuredGrid>
+</VTKFile>
+)";
+  };
+  write(4, "");
+  TetMesh m = read_tet_mesh(file);
+  StoredFields f = read_stored_fields(file, m);
+  EXPECT_EQ(f.time.value_or(-1), 0.25);
+  ASSERT_EQ(f.displacement.size(), 12u);
+  EXPECT_FLOAT_EQ(float(f.displacement[7]), 0.002f);
+  EXPECT_THAT(f.von_mises, ::testing::ElementsAre(1500));
+  write(5, "9 9 9");
+  m = read_tet_mesh(file);
+  f = read_stored_fields(file, m);
+  EXPECT_TRUE(f.displacement.empty());
+  EXPECT_TRUE(f.von_mises.empty());
+  EXPECT_THAT(f.note, HasSubstr("do not match the mesh"));
+  EXPECT_EQ(f.time.value_or(-1), 0.25);
 }
 
 }  // namespace

@@ -224,7 +224,19 @@ TEST(StudyPlots, TinySlenderBarStudyWritesBothPlots) {
   }
   EXPECT_TRUE(has(read_png(dir / "pareto.png"), palette(3)));    // the front
   EXPECT_TRUE(has(read_png(dir / "convergence.png"), palette(0)));  // model=linear
-  EXPECT_TRUE(has(read_png(dir / "convergence.png"), palette(1)));  // model=corotational
+  // Both models are named: each in its own colour, or, when the two curves coincide at this size
+  // (a slender bar barely rotates: their errors differ in the 5th digit), drawn once in the first
+  // one's colour under a joint name, so that the legend names no line that cannot be seen.
+  PlotLayout layout;
+  const Image conv = render_plot(study_convergence_plots(s).panels.at(0), &layout);
+  if (layout.legend_labels.size() == 2) {
+    EXPECT_THAT(layout.legend_labels, ElementsAre("model=linear", "model=corotational"));
+    EXPECT_TRUE(has(conv, palette(1)));  // model=corotational
+  } else {
+    EXPECT_THAT(layout.legend_labels, ElementsAre(::testing::AnyOf("model=linear \u2248 model=corotational",
+                                                                   "model=linear = model=corotational")));
+    EXPECT_FALSE(has(conv, palette(1)));
+  }
 }
 
 }  // namespace

@@ -9,6 +9,8 @@
 //   p.series.push_back({"corotational", xs, ys, raster::SeriesStyle::line_and_markers});
 //   raster::write_plot_png(p, "out/convergence.png");
 #pragma once
+#include <array>
+#include <cstddef>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -49,9 +51,10 @@ struct PlotAxis {
   std::optional<double> min, max;     // default: the data's range (padded, rounded)
 };
 
-// Where the legend goes: inside the plot area, in the corner where it hides the least data, or
-// below the x axis title in as many columns as fit (for many or long entries; the plot area
-// shrinks by its height, the picture keeps its size).
+// Where the legend goes: inside the plot area, in the corner where it hides the fewest data
+// points (then the least of the lines), or below the x axis title in as many columns as fit
+// (for many or long entries; the plot area shrinks by its height, the picture keeps its size).
+// `inside` falls back to `below` when every corner would hide a data point: no point is hidden.
 enum class LegendPlace { inside, below };
 
 struct Plot {
@@ -64,10 +67,29 @@ struct Plot {
   int width = 800, height = 600;      // pixels
 };
 
+// Where render_plot put things, in pixels (top-left origin), for tests and tools.
+struct PlotLayout {
+  std::array<int, 4> area{};                 // the plot area: x0, y0, x1, y1
+  std::optional<std::array<int, 4>> legend;  // the legend box: x, y, width, height (none: no legend)
+  bool legend_below = false;                 // the legend is below the plot (asked for, or no free corner)
+  bool legend_hides_points = false;          // internal: the best corner hid a point (never true on return)
+  struct Point {
+    double x = 0, y = 0;  // centre of a drawn data point (inside the plot area)
+    double radius = 0;    // how far its marker reaches (half the line width for a line without markers)
+    std::size_t series = 0;
+  };
+  std::vector<Point> points;
+  std::vector<std::string> legend_labels;    // the legend's entries in order ("a = b", "a ≈ b" for coincident series)
+};
+
 // Non-finite points are left out, as are non-positive ones on a log axis. A plot with no point
-// left gets axes [0, 1] (or [1, 10] when log). Throws InputError on mismatched x/y lengths or
-// a size outside [64, 16384].
+// left gets axes [0, 1] (or [1, 10] when log). Series that coincide (same style, and each point
+// identical or within half a pixel of the other's) are drawn once, in the first one's colour and
+// marker, and named together in one legend entry: "linear = corotational" when identical,
+// "linear ≈ corotational" when only indistinguishable at this size. Throws InputError on
+// mismatched x/y lengths or a size outside [64, 16384].
 Image render_plot(const Plot& plot);
+Image render_plot(const Plot& plot, PlotLayout* layout);
 void write_plot_png(const Plot& plot, const std::filesystem::path& path);
 
 }  // namespace pliant::raster

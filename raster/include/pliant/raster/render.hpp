@@ -10,6 +10,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -39,7 +40,7 @@ const char* field_title(Field f);  // "displacement", "von Mises stress", ""
 struct SurfaceTopology {
   std::string name;
   std::vector<std::array<std::int32_t, 3>> triangles;  // outward, indices into the surface nodes
-  std::vector<std::int32_t> fixed;       // surface nodes held at rest (drawn dark)
+  std::vector<std::int32_t> fixed;       // surface nodes held at rest (drawn magenta, dark outline)
   std::vector<std::int32_t> driven;      // surface nodes moved by prescribed motion (drawn orange)
   std::vector<std::int32_t> source_node; // surface node -> node of the body's level
 };
@@ -68,11 +69,30 @@ struct CaptureCache {
 };
 Frame capture(const World& world, Field field, CaptureCache* cache = nullptr);
 
-// A frame of one tet mesh (e.g. a .vtu result): its boundary surface. With `rest` (same node
-// count, else InputError) the displacement field is points - rest points; von_mises is not
-// available from a mesh alone (InputError).
+// What a result file stores besides its mesh: `pliant run` writes every .vtu with the point
+// field "displacement" (3 components, m) and the cell field "von_mises" (Pa), and lists it with
+// its simulated time in OUT/series.pvd. Empty vectors when the file has no such field.
+struct StoredFields {
+  std::vector<double> displacement;  // 3 per node of the mesh as read, or empty
+  std::vector<double> von_mises;     // 1 per tet of the mesh as read, or empty
+  std::optional<double> time;        // s: a "TimeValue" field-data array, else the .pvd entry
+  std::string note;                  // why fields present in the file cannot be used, if so
+};
+// Reads the fields of a .vtu (inline ascii or base64 binary, zlib or not; a field whose counts
+// do not match `mesh`, the file as read by read_tet_mesh, is left out with a note) and its time.
+// Never throws for a file it cannot decode: the fields are then absent.
+StoredFields read_stored_fields(const std::filesystem::path& file, const TetMesh& mesh);
+// The time of `file` in a ParaView .pvd collection of its folder or of the folder above that
+// lists it (as `pliant run` writes OUT/series.pvd for OUT/vtu/*.vtu); nullopt if none does.
+std::optional<double> series_time(const std::filesystem::path& file);
+
+// A frame of one tet mesh (e.g. a .vtu result): its boundary surface. The displacement field
+// is points - rest points with `rest` (same node count, else InputError), else the stored
+// displacement; von_mises needs the stored cell field (averaged over the tets around each
+// surface node). A field that cannot be had is an InputError saying what is missing. The
+// frame's time is the stored one, when known.
 Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field,
-                      const TetMesh* rest = nullptr);
+                      const TetMesh* rest = nullptr, const StoredFields* stored = nullptr);
 
 // "WIDTHxHEIGHT" (e.g. "1280x720"), each in [16, 16384]; else InputError naming `what`.
 std::array<int, 2> parse_size(std::string_view text, std::string_view what = "size");

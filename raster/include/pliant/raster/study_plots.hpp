@@ -28,6 +28,7 @@ Plot study_pareto_plot(const study::StudyResult& result);
 // values are all numbers (x: that value, in its scene unit when known); one series per
 // combination of the other sweeps, in grid order, points sorted along x (a gap where a run has
 // no error). Log axes as above. More than 4 lines: the legend goes below the plot (see below).
+// Lines that coincide at the plot's size are drawn once and share a legend entry (plot.hpp).
 struct ConvergencePlots {
   std::vector<Plot> panels;  // one per quantity; empty when there is nothing to show (why_none)
   std::string sweep;         // the path of the sweep along x

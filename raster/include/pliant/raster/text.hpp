@@ -1,5 +1,5 @@
 // Text in pictures without a font library: an embedded 5x7 bitmap font (ASCII 32..126, plus
-// µ ² ³ ° · × and the en dash from UTF-8), drawn at an integer scale. A glyph cell is 6 x 10
+// µ ² ³ ° · × ≈ and the en dash from UTF-8), drawn at an integer scale. A glyph cell is 6 x 10
 // units (5 columns + 1 gap; 7 rows above the baseline, 2 for descenders, 1 gap).
 #pragma once
 #include <string_view>
