@@ -76,9 +76,14 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     throw;
   }
   if (!quiet) {
+    for (const std::string& note : s.notes) fmt::print(stderr, "pliant: note: {}\n", note);
     fmt::print("{} nodes, {} tets ({}, {}), {} threads\n", s.nodes, s.tets, s.model, s.precision, s.threads);
     fmt::print("{} steps of {:.4g} s (stable bound {:.4g} s) to t = {:.4g} s in {:.2f} s wall: {:.0f} steps/s\n",
                s.steps, s.dt, s.stable_dt, s.simulated_time, s.wall_time_s, s.steps_per_second);
+    if (s.adapted_steps > 0)
+      fmt::print("adaptive step: the deformation stiffened the elements up to {:.3g}x; {} of {} steps were split, into up "
+                 "to {} sub-steps\n",
+                 s.max_stiffness_ratio, s.adapted_steps, s.steps, s.max_substeps);
     fmt::print("max displacement {:.4g} m, kinetic {:.4g} J, elastic {:.4g} J, state hash {}\n", s.max_displacement,
                s.kinetic_energy, s.elastic_energy, s.state_hash);
     fmt::print("results in {}/ (summary.json{}{})\n", fs::path(out).string(),

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Command-line behaviour of `pliant`: exit codes (0 ok, 2 invalid input, 3 diverged), the
+# Command-line behaviour of `pliant`: exit codes (0 ok, 1 internal, 2 invalid input, 3 diverged), the
 # files a run writes, and error messages that name the field or file. Usage: cli_test.sh PLIANT SOURCE_DIR WORK_DIR
 set -u
 pliant=$1; src=$2; work=$3
@@ -57,6 +57,35 @@ scene diverge "{\"duration\": 0.01, \"bodies\": [{\"name\": \"b\", $box, $fixed,
 check diverges 3 "body 'b', level 0, step [0-9]+.*node [0-9]+" -- "$pliant" run "$work/diverge.json" --out "$work/odiv"
 if grep -q '"status": "diverged"' "$work/odiv/summary.json" 2>/dev/null && ! grep -qi nan "$work/odiv/summary.json"; then
   echo "ok   diverged summary"; passed=$((passed+1)); else echo "FAIL diverged summary"; failed=$((failed+1)); fi
+# Load fixes are reported, not silent: cube_inverted.msh has 2 triangles and an inverted tet.
+scene fixes "{\"duration\": 0.001, \"gravity\": [0,0,0], \"bodies\": [{\"name\": \"c\", \"mesh\": {\"file\": \"$src/tests/data/mesh/cube_inverted.msh\", \"scale\": 0.1}}]}"
+check run_load_notes 0 "body 'c': mesh loaded with 2 non-tetrahedral cell\(s\) skipped, [1-9][0-9]* inverted tet\(s\) re-oriented" -- "$pliant" run "$work/fixes.json" --out "$work/ofix"
+if grep -q '"notes"' "$work/ofix/summary.json" 2>/dev/null; then echo "ok   load notes in summary"; passed=$((passed+1)); else echo "FAIL load notes in summary"; failed=$((failed+1)); fi
+
+# The adaptive step: a soft stvk beam collapsing under its own weight is sub-stepped and says so;
+# the summary carries the counts. With "adapt": false the summary shows no sub-stepping.
+soft='"mesh": {"box": {"min": [0,0,0], "max": [0.1,0.025,0.025], "cells": [6,2,2]}}, "model": "stvk", "material": {"young": 100, "poisson": 0.3, "density": 1000}'
+scene collapse "{\"duration\": 0.5, \"bodies\": [{\"name\": \"s\", $soft, $fixed}]}"
+check run_adaptive 0 "adaptive step: the deformation stiffened the elements up to" -- "$pliant" run "$work/collapse.json" --out "$work/ocol"
+# json_num FILE KEY: a top-level number of summary.json (no python on a fresh machine).
+json_num() { sed -n "s/^  \"$2\": \([-0-9.e+]*\),\{0,1\}$/\1/p" "$1" | head -n 1; }
+if awk -v a="$(json_num "$work/ocol/summary.json" adapted_steps)" -v m="$(json_num "$work/ocol/summary.json" max_substeps)" \
+       -v r="$(json_num "$work/ocol/summary.json" max_stiffness_ratio)" 'BEGIN { exit !(a > 0 && m > 1 && r > 2) }'; then
+  echo "ok   adaptive counts in summary"; passed=$((passed+1)); else echo "FAIL adaptive counts in summary"; failed=$((failed+1)); fi
+
+# Determinism across processes and thread counts: the same scene gives the same state hash.
+hash_of() { sed -n 's/^  "state_hash": "\([0-9a-f]*\)",\{0,1\}$/\1/p' "$1"; }
+"$pliant" run "$work/good.json" --out "$work/h1" --threads 1 --quiet && "$pliant" run "$work/good.json" --out "$work/h2" --threads 2 --quiet \
+  && "$pliant" run "$work/good.json" --out "$work/h3" --threads 2 --quiet
+if [ "$(hash_of "$work/h1/summary.json")" = "$(hash_of "$work/h2/summary.json")" ] && [ "$(hash_of "$work/h2/summary.json")" = "$(hash_of "$work/h3/summary.json")" ]; then
+  echo "ok   same hash over runs and threads"; passed=$((passed+1)); else echo "FAIL hashes differ"; failed=$((failed+1)); fi
+# --threads and --duration take effect (whole steps up to the duration: at most one step past it).
+if awk -v t="$(json_num "$work/out2/summary.json" threads)" -v d="$(json_num "$work/out2/summary.json" simulated_time)" \
+       'BEGIN { exit !(t == 1 && d >= 0.002 - 1e-12 && d < 0.0025) }'; then
+  echo "ok   overrides in summary"; passed=$((passed+1)); else echo "FAIL overrides in summary"; failed=$((failed+1)); fi
+
+# An output folder that cannot be made: exit 2, naming it.
+check out_unwritable 2 "/proc/pliant-no" -- "$pliant" run "$work/good.json" --out /proc/pliant-no/x
 check bad_option 2 "" -- "$pliant" run "$work/good.json" --bogus
 check no_command 2 "" -- "$pliant"
 check help 0 "run" -- "$pliant" --help
@@ -69,6 +98,23 @@ check info_vtu 0 "nodes 81  tets 192" -- "$pliant" info "$work/out4/vtu/b_00000.
 check info_stable_dt 0 "stable dt" -- "$pliant" info "$work/out4/vtu/b_00000.vtu" --young 1e5
 check info_missing 2 "absent.vtu" -- "$pliant" info "$work/absent.vtu"
 check mesh_convert 0 "81 nodes, 192 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
+# Meshing a closed surface (STL and PLY, written here: a unit cube of 12 triangles) and an implicit
+# shape, when the build has CGAL.
+if "$pliant" mesh --help 2>&1 | grep -q -- --implicit; then
+  v=("0 0 0" "1 0 0" "1 1 0" "0 1 0" "0 0 1" "1 0 1" "1 1 1" "0 1 1")
+  f=("0 2 1" "0 3 2" "4 5 6" "4 6 7" "0 1 5" "0 5 4" "1 2 6" "1 6 5" "2 3 7" "2 7 6" "3 0 4" "3 4 7")
+  { echo "solid c"; for t in "${f[@]}"; do set -- $t
+      echo " facet normal 0 0 0"; echo "  outer loop"
+      for i in $1 $2 $3; do echo "   vertex ${v[$i]}"; done
+      echo "  endloop"; echo " endfacet"; done; echo "endsolid c"; } > "$work/c.stl"
+  { printf 'ply\nformat ascii 1.0\nelement vertex 8\nproperty float x\nproperty float y\nproperty float z\nelement face 12\nproperty list uchar int vertex_indices\nend_header\n'
+    for p in "${v[@]}"; do echo "$p"; done; for t in "${f[@]}"; do echo "3 $t"; done; } > "$work/c.ply"
+  check mesh_stl 0 "volume 1 m\^3" -- "$pliant" mesh "$work/c.stl" --cell-size 0.25 -o "$work/c_stl.vtu"
+  check mesh_ply 0 "volume 1 m\^3" -- "$pliant" mesh "$work/c.ply" --cell-size 0.25 -o "$work/c_ply.vtu"
+  check mesh_implicit 0 "tets, volume" -- "$pliant" mesh --implicit sphere --cell-size 0.02 -o "$work/sphere.vtu"
+  check mesh_bad_cell_size 2 "cell-size" -- "$pliant" mesh "$work/c.stl" --cell-size -1 -o "$work/x.vtu"
+  check info_meshed 0 "dihedral" -- "$pliant" info "$work/c_stl.vtu"
+fi
 
 # study: the tables and the plots, their paths printed. test_study_plots checks the pixels; here,
 # that the files are PNGs of 800x600 (from the IHDR chunk) and not near-empty (a blank 800x600
@@ -90,6 +136,10 @@ check study_no_convergence 0 "no convergence\.png: no sweep changes the mesh" --
 if [ -s "$work/study2/pareto.png" ] && [ ! -e "$work/study2/convergence.png" ]; then
   echo "ok   study without convergence"; passed=$((passed+1)); else echo "FAIL study without convergence"; failed=$((failed+1)); fi
 check study_bad_cost 2 "--cost must be wall or tet-steps" -- "$pliant" study "$bar" --sweep 'bodies[0].model="linear"' --cost joules --out "$work/study3"
+
+# The measuring commands: a stability subset and a short stress run, each with its exit code.
+check stability_subset 0 "unexpected" -- "$pliant" stability --subset --steps 200
+check stress_short 0 "result: OK" -- "$pliant" stress --seconds 2 --threads 2 --seed 7
 
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]

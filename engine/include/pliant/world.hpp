@@ -78,6 +78,9 @@ class World {
   int level_count(BodyId body) const;
   std::size_t node_count(BodyId body, int level = 0) const;
   std::size_t tet_count(BodyId body, int level = 0) const;
+  // What loading did to the body's mesh: non-tetrahedral cells skipped, inverted tets re-oriented,
+  // unused vertices dropped (all zero for a clean mesh).
+  const MeshLoadReport& mesh_load_report(BodyId body) const;
 
   // Zero-copy access to a level's arrays. T must match the world's precision (else InputError).
   // Positions and velocities may be written between steps (initial conditions); sizes must not change.

@@ -106,6 +106,7 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   j["potential_energy"] = s.potential_energy;
   j["state_hash"] = s.state_hash;
   j["files"] = s.files;
+  if (!s.notes.empty()) j["notes"] = s.notes;
   std::ofstream out(path);
   if (!out) throw InputError(fmt::format("{}: cannot write", path.string()));
   out << j.dump(2) << "\n";
@@ -130,6 +131,12 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   for (std::size_t b = 0; b < world.body_count(); ++b) {
     s.nodes += world.node_count(BodyId(b));
     s.tets += world.tet_count(BodyId(b));
+    const MeshLoadReport& r = world.mesh_load_report(BodyId(b));
+    if (r.skipped_cells || r.reoriented_tets || r.dropped_vertices)
+      s.notes.push_back(fmt::format("body '{}': mesh loaded with {} non-tetrahedral cell(s) skipped, {} inverted tet(s) "
+                                    "re-oriented, {} unused vertex(es) dropped",
+                                    world.body_def(BodyId(b)).name, r.skipped_cells, r.reoriented_tets,
+                                    r.dropped_vertices));
     const std::string m = to_string(world.body_def(BodyId(b)).model);
     if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
   }

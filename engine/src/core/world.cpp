@@ -97,6 +97,7 @@ struct World::Impl {
   static constexpr int kAdaptRelax = 32;
   static constexpr int kMaxAdaptiveSubsteps = 256;
   int checks_wanting_fewer = 0;
+  std::vector<MeshLoadReport> load_reports;  // per body: what loading fixed in its mesh
   void adapt_substeps() {
     stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
     max_stiffness_ratio = std::max(max_stiffness_ratio, stiffness_ratio);
@@ -201,11 +202,23 @@ TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) { return bu
 
 BodyId World::add_body(const BodyDef& def) {
   std::vector<std::int32_t> old_to_new;
-  TetMesh mesh = build_mesh_mapped(def.mesh, nullptr, &old_to_new);
-  if (old_to_new.empty() || !has_node_regions(def)) return add_body(def, std::move(mesh));
-  const BodyId id = add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh));
-  impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
+  MeshLoadReport read;  // what the reader skipped or fixed
+  TetMesh mesh = build_mesh_mapped(def.mesh, &read, &old_to_new);
+  const bool mapped = !old_to_new.empty() && has_node_regions(def);
+  const BodyId id = mapped ? add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh))
+                           : add_body(def, std::move(mesh));
+  if (mapped) impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
+  MeshLoadReport& r = impl_->load_reports[std::size_t(id)];
+  r.skipped_cells += read.skipped_cells;
+  r.reoriented_tets += read.reoriented_tets;
+  r.dropped_vertices += read.dropped_vertices;
   return id;
+}
+
+const MeshLoadReport& World::mesh_load_report(BodyId body) const {
+  if (body < 0 || std::size_t(body) >= impl_->load_reports.size())
+    throw InputError(fmt::format("no body with id {}", body));
+  return impl_->load_reports[std::size_t(body)];
 }
 
 BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
@@ -228,6 +241,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     impl_->visit([](auto& s) { s.bodies.pop_back(); });
     throw;
   }
+  impl_->load_reports.push_back(report);
   return id;
 }
 
