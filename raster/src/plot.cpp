@@ -156,6 +156,53 @@ namespace {
 // Series drawn over an earlier one (same style, the same points in the same order, each within
 // half a pixel of it at this picture size): the index of that earlier series, else their own
 // index. `exact[i]`: series i's points are identical to its leader's, not only close.
+// The legend label of coincident series. Labels made of the same "key=value" fields in the same
+// order (as `pliant study` names its runs) merge field by field, the values that differ joined by
+// '|' when the series are identical and by '≈' when they only coincide to the pixel:
+// "model=linear|stvk, nu=0.3" instead of "model=linear, nu=0.3 = model=stvk, nu=0.3", which soon
+// outgrows the picture. Other labels are joined with `sep` (" = " or " ≈ ").
+std::string joint_label(const std::vector<std::string>& labels, const char* sep) {
+  if (labels.empty()) return {};
+  auto fields = [](const std::string& l) {
+    std::vector<std::pair<std::string, std::string>> out;
+    std::size_t start = 0;
+    while (start <= l.size()) {
+      std::size_t end = l.find(", ", start);
+      if (end == std::string::npos) end = l.size();
+      const std::string f = l.substr(start, end - start);
+      const std::size_t eq = f.find('=');
+      if (eq == std::string::npos || eq == 0) return std::vector<std::pair<std::string, std::string>>{};
+      out.emplace_back(f.substr(0, eq), f.substr(eq + 1));
+      start = end + 2;
+    }
+    return out;
+  };
+  const auto first = fields(labels[0]);
+  bool mergeable = labels.size() > 1 && !first.empty();
+  std::vector<std::vector<std::string>> values(first.size());
+  for (std::size_t k = 0; k < first.size(); ++k) values[k].push_back(first[k].second);
+  for (std::size_t i = 1; mergeable && i < labels.size(); ++i) {
+    const auto f = fields(labels[i]);
+    if (f.size() != first.size()) mergeable = false;
+    for (std::size_t k = 0; mergeable && k < f.size(); ++k) {
+      if (f[k].first != first[k].first) mergeable = false;
+      else if (std::find(values[k].begin(), values[k].end(), f[k].second) == values[k].end())
+        values[k].push_back(f[k].second);
+    }
+  }
+  std::string out;
+  if (mergeable) {
+    for (std::size_t k = 0; k < first.size(); ++k) {
+      out += (k ? ", " : "") + first[k].first + "=";
+      const char* join = std::string(sep) == " = " ? "|" : "\u2248";
+      for (std::size_t j = 0; j < values[k].size(); ++j) out += (j ? join : "") + values[k][j];
+    }
+    return out;
+  }
+  for (const std::string& l : labels) out += (out.empty() ? "" : sep) + l;
+  return out;
+}
+
 std::vector<std::size_t> coincident_leaders(const Plot& plot, const Scale& sx, const Scale& sy, std::vector<bool>& exact) {
   std::vector<std::size_t> leader(plot.series.size());
   exact.assign(plot.series.size(), true);
@@ -227,8 +274,7 @@ Image draw_plot(const Plot& plot, bool legend_below, PlotLayout& out) {
   }
   std::vector<std::string> entry_label(plot.series.size());
   for (std::size_t i = 0; i < plot.series.size(); ++i)
-    for (const std::string& l : names[i])
-      entry_label[i] += (entry_label[i].empty() ? "" : all_exact[i] ? " = " : " \u2248 ") + l;
+    entry_label[i] = joint_label(names[i], all_exact[i] ? " = " : " \u2248 ");
   // The legend's entries, measured first: below the plot they take room from it.
   std::vector<std::size_t> listed;
   int lw = 0;

@@ -323,7 +323,8 @@ TEST(Plot, CoincidentSeriesShareOneLegendEntry) {
     write_plot_png(p, fs::path(keep) / "coincident.png");
   }
   // Close enough to be one line at this size (the slender bar study: linear and corotational
-  // differ in the 5th digit): drawn once, named "a ≈ b"; the same data on a taller axis range
+  // differ in the 5th digit): drawn once, named "model=linear≈corotational" (key=value labels merge
+  // field by field); the same data on a taller axis range
   // where they part by more than half a pixel stay apart.
   Plot near;
   near.x = {"mesh: number of tets", ""};
@@ -331,7 +332,7 @@ TEST(Plot, CoincidentSeriesShareOneLegendEntry) {
   near.series.push_back({"model=linear", {60, 120}, {0.859656189, 0.458648368}, SeriesStyle::line_and_markers});
   near.series.push_back({"model=corotational", {60, 120}, {0.859670445, 0.458495598}, SeriesStyle::line_and_markers});
   const Image ni = render_plot(near, &layout);
-  EXPECT_THAT(layout.legend_labels, ::testing::ElementsAre("model=linear \u2248 model=corotational"));
+  EXPECT_THAT(layout.legend_labels, ::testing::ElementsAre("model=linear\u2248corotational"));
   auto present = [](const Image& img, Rgba want) {
     for (int y = 0; y < img.height(); ++y)
       for (int x = 0; x < img.width(); ++x)
@@ -362,6 +363,25 @@ TEST(Plot, BadSeriesAreErrors) {
   Plot q;
   q.width = 10;
   EXPECT_THROW(render_plot(q), InputError);
+}
+
+TEST(Plot, CoincidentStudyLabelsMergeFieldByField) {
+  // The runs of a study are named "key=value, key=value": coincident ones merge per field, so the
+  // legend stays as short as one run's name (the cantilever_trade study had four labels of 50
+  // characters joined end to end, cut off at the picture's edge).
+  Plot p;
+  p.x = {"mesh: number of tets", ""};
+  p.y = {"|relative error|", "%"};
+  p.series.push_back({"tets=5, precision=float, courant=0.3", {1, 2}, {10, 5}, SeriesStyle::line_and_markers});
+  p.series.push_back({"tets=5, precision=double, courant=0.3", {1, 2}, {10, 5}, SeriesStyle::line_and_markers});
+  p.series.push_back({"tets=5, precision=float, courant=0.9", {1, 2}, {10, 5}, SeriesStyle::line_and_markers});
+  p.series.push_back({"tets=6, precision=float, courant=0.3", {1, 2}, {20, 9}, SeriesStyle::line_and_markers});
+  p.series.push_back({"linear", {1, 2}, {30, 15}, SeriesStyle::line_and_markers});
+  p.series.push_back({"model=x", {1, 2}, {30, 15}, SeriesStyle::line_and_markers});  // fields differ: joined
+  PlotLayout layout;
+  render_plot(p, &layout);
+  EXPECT_THAT(layout.legend_labels, ::testing::ElementsAre("tets=5, precision=float|double, courant=0.3|0.9",
+                                                           "tets=6, precision=float, courant=0.3", "linear = model=x"));
 }
 
 }  // namespace
