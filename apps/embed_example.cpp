@@ -36,12 +36,14 @@ int main() {
     body.prescribed.push_back(finger);
     const BodyId id = world.add_body(body, block);
 
-    // Zero-copy views of the finest level's arrays.
-    const Level<float>& level = world.level<float>(id);
+    // Zero-copy, read-only views of the body's SoA arrays (one span per axis), valid while the body
+    // exists: they always show the current state, no copy is made per frame.
+    const auto rest = world.rest_positions<float>(id);
+    const auto x = world.positions<float>(id);
     std::size_t probe = 0;  // the node at the middle of the top face's edge at x = 0.1
-    for (std::size_t n = 0; n < level.node_count; ++n)
-      if (std::fabs(level.X[0][n] - 0.1f) < 1e-6f && std::fabs(level.X[1][n] - 0.05f) < 1e-6f &&
-          std::fabs(level.X[2][n] - 0.05f) < 1e-6f)
+    for (std::size_t n = 0; n < x[0].size(); ++n)
+      if (std::fabs(rest[0][n] - 0.1f) < 1e-6f && std::fabs(rest[1][n] - 0.05f) < 1e-6f &&
+          std::fabs(rest[2][n] - 0.05f) < 1e-6f)
         probe = n;
 
     // The host's loop: 0.5 s at 60 frames per second; the finger goes down 1 cm over 0.25 s.
@@ -53,7 +55,7 @@ int main() {
       while (world.time() < t_end) world.step();
       if (f % 10 == 0)
         std::printf("t = %.3f s  finger depth %.4f m  edge node z = %.5f m  (%lld steps)\n", world.time(), depth,
-                    level.x[2][probe], (long long)world.steps());
+                    x[2][probe], (long long)world.steps());
     }
     const Energies e = world.energies();
     std::printf("kinetic %.3g J, elastic %.3g J, state hash %016llx\n", e.kinetic, e.elastic,
@@ -61,13 +63,13 @@ int main() {
 
     // What a user would check: the top face sagged under the finger, the body did not explode,
     // and the clamped bottom did not move.
-    const float sag = level.X[2][probe] - level.x[2][probe];
+    const float sag = rest[2][probe] - x[2][probe];
     if (!(sag > 1e-5f && sag < 0.01f)) {
       std::fprintf(stderr, "unexpected sag of the top edge: %g m\n", double(sag));
       return 1;
     }
-    for (std::size_t n = 0; n < level.node_count; ++n)
-      if (level.X[2][n] == 0.0f && level.x[2][n] != 0.0f) {
+    for (std::size_t n = 0; n < x[2].size(); ++n)
+      if (rest[2][n] == 0.0f && x[2][n] != 0.0f) {
         std::fprintf(stderr, "clamped node %zu moved\n", n);
         return 1;
       }

@@ -525,3 +525,39 @@ TEST(Runner, SummaryHasTheDocumentedFields) {
 
 }  // namespace
 }  // namespace pliant
+
+namespace pliant {
+namespace {
+
+TEST(Api, PositionSpansAreZeroCopyViewsOfTheLevel) {
+  for (Precision p : {Precision::float32, Precision::float64}) {
+    WorldDef wd;
+    wd.precision = p;
+    World w(wd);
+    const BodyId b = w.add_body(beam_def(ForceModel::corotational));
+    auto check = [&](auto zero) {
+      using T = decltype(zero);
+      const Level<T>& L = w.level<T>(b);
+      const auto x = w.positions<T>(b), v = w.velocities<T>(b), X = w.rest_positions<T>(b);
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(x[k].data(), L.x[k].data());  // the level's own storage, not a copy
+        EXPECT_EQ(v[k].data(), L.v[k].data());
+        EXPECT_EQ(X[k].data(), L.X[k].data());
+        EXPECT_EQ(x[k].size(), L.node_count);
+        EXPECT_EQ(reinterpret_cast<std::uintptr_t>(x[k].data()) % 64, 0u);  // cache-line aligned
+      }
+      for (int i = 0; i < 5; ++i) w.step();
+      const Vec3d q = w.node_position(b, 7);
+      EXPECT_EQ(double(x[2][7]), q[2]);  // still the current state after steps
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(L.tet[0].data()) % 64, 0u);
+      EXPECT_EQ(reinterpret_cast<std::uintptr_t>(L.state.data()) % 64, 0u);
+    };
+    if (p == Precision::float32) check(0.0f); else check(0.0);
+    // The wrong precision is an error that says so.
+    if (p == Precision::float32) EXPECT_THROW(w.positions<double>(b), InputError);
+    else EXPECT_THROW(w.positions<float>(b), InputError);
+  }
+}
+
+}  // namespace
+}  // namespace pliant

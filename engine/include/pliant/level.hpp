@@ -21,20 +21,20 @@ struct Level {
   AlignedVector<T> f[3];        // total internal + external force of the last step (N); on fixed nodes, the reaction
   AlignedVector<T> inv_mass;    // 1/kg, 0 on fixed nodes
   AlignedVector<T> mass;        // lumped mass rho V / 4 per incident tet (kg)
-  std::vector<std::uint8_t> state;  // NodeStateCode
+  AlignedVector<std::uint8_t> state;  // NodeStateCode
   AlignedVector<T> external[3];     // constant nodal loads (N); empty when the body has none
 
   // ---- tetrahedra ----
   std::size_t tet_count = 0;
-  std::vector<std::int32_t> tet[4];  // corner node indices, positive orientation at rest
+  AlignedVector<std::int32_t> tet[4];  // corner node indices, positive orientation at rest
   AlignedVector<T> volume;           // rest volume (m^3)
   AlignedVector<T> grad[9];          // rest gradients of phi_1..3 (1/m), rows of Dm^-1
   AlignedVector<T> rotation[4];      // corotational: element rotation quaternion (w,x,y,z); empty otherwise
   AlignedVector<T> corner_force[12]; // per-tet corner forces of the element pass (N)
 
   // ---- incidence and surface ----
-  std::vector<std::int32_t> incidence_offsets;  // node_count + 1
-  std::vector<std::int32_t> incidence;          // 4 * tet + corner, sorted per node
+  AlignedVector<std::int32_t> incidence_offsets;  // node_count + 1
+  AlignedVector<std::int32_t> incidence;          // 4 * tet + corner, sorted per node
   std::vector<std::array<std::int32_t, 3>> boundary;  // outward boundary triangles
 
   // ---- material and time ----

@@ -4,7 +4,9 @@
 // the API edge; nothing below this header throws during a step.
 #pragma once
 #include <cstdint>
+#include <array>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -88,6 +90,15 @@ class World {
   Level<T>& level(BodyId body, int level = 0);
   template <class T>
   const Level<T>& level(BodyId body, int level = 0) const;
+
+  // The same, read-only, as spans over the SoA arrays (no copy; valid until the body is destroyed):
+  // positions<float>(body)[2][n] is node n's z (m). T must match the world's precision.
+  template <class T>
+  std::array<std::span<const T>, 3> positions(BodyId body, int level = 0) const;   // m
+  template <class T>
+  std::array<std::span<const T>, 3> velocities(BodyId body, int level = 0) const;  // m/s
+  template <class T>
+  std::array<std::span<const T>, 3> rest_positions(BodyId body, int level = 0) const;  // m
 
   Vec3d node_position(BodyId body, std::size_t node, int level = 0) const;   // m
   Vec3d node_rest_position(BodyId body, std::size_t node, int level = 0) const;

@@ -357,6 +357,32 @@ template Level<double>& World::level<double>(BodyId, int);
 template const Level<float>& World::level<float>(BodyId, int) const;
 template const Level<double>& World::level<double>(BodyId, int) const;
 
+namespace {
+template <class T, class A>
+std::array<std::span<const T>, 3> spans(const A (&arrays)[3]) {
+  return {std::span<const T>(arrays[0]), std::span<const T>(arrays[1]), std::span<const T>(arrays[2])};
+}
+}  // namespace
+
+template <class T>
+std::array<std::span<const T>, 3> World::positions(BodyId b, int l) const {
+  return spans<T>(level<T>(b, l).x);
+}
+template <class T>
+std::array<std::span<const T>, 3> World::velocities(BodyId b, int l) const {
+  return spans<T>(level<T>(b, l).v);
+}
+template <class T>
+std::array<std::span<const T>, 3> World::rest_positions(BodyId b, int l) const {
+  return spans<T>(level<T>(b, l).X);
+}
+template std::array<std::span<const float>, 3> World::positions<float>(BodyId, int) const;
+template std::array<std::span<const double>, 3> World::positions<double>(BodyId, int) const;
+template std::array<std::span<const float>, 3> World::velocities<float>(BodyId, int) const;
+template std::array<std::span<const double>, 3> World::velocities<double>(BodyId, int) const;
+template std::array<std::span<const float>, 3> World::rest_positions<float>(BodyId, int) const;
+template std::array<std::span<const double>, 3> World::rest_positions<double>(BodyId, int) const;
+
 Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
