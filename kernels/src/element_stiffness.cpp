@@ -93,10 +93,25 @@ void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, d
     std::int32_t n[4];
     detail::load_tet(c, t, e, n);
     const Mat3<T> F = detail::corner_gradient(e.x, e.g);
-    T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};  // a copy
-    const Mat3<T> R = detail::extract_rotation(F, q);
+    // The rotation the last force pass stored (one step old): close enough for a monitor, and the
+    // rotation iteration would cost more than the rest of this pass.
+    const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
+    const Mat3<T> R = detail::quat_to_matrix(q);
     double RtF[9];
     sym_to_double(detail::mul_tn(R, F), RtF);
+    // Fast path: with e = S - I and eps = |e|_F >= max |s_i - 1|, every twist mode is at most
+    // (4 mu + 6 lambda) eps / (2 (1 - eps)) = (3 lambda + 2 mu) eps / (1 - eps), below the scaling
+    // mode while eps <= 1/2: the ratio is then exactly 1, without eigenvalues.
+    double e2 = 0;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const double e = RtF[3 * i + j] - (i == j ? 1.0 : 0.0);
+        e2 += e * e;
+      }
+    if (e2 <= 0.25) {
+      ratio[t] = 1;
+      continue;
+    }
     double s[3];  // signed principal stretches
     symmetric_eigenvalues3(RtF, s);
     const double trS = s[0] + s[1] + s[2];

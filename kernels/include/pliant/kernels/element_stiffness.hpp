@@ -30,8 +30,9 @@
 // its rest stiffness k along the edge, and is below it across): their ratio is 1 and World does not
 // call these.
 //
-// Scalar code in double, like the energy reports; the corotational rotation is refined on a copy
-// of the stored warm start (never stored back), so monitoring never changes the trajectory.
+// Scalar code in double, like the energy reports. Corotational uses the rotation the last force
+// pass stored (one step old) as it is: refining it would cost more than the rest of the pass, and
+// a monitor needs no more. Read-only: monitoring never changes the trajectory.
 #pragma once
 #include "pliant/kernels/element_context.hpp"
 #include "pliant/kernels/range.hpp"
@@ -42,7 +43,7 @@ namespace pliant {
 inline constexpr double kMinStretchSum = 1e-3;
 
 // ratio[t] = (largest |eigenvalue| of the Hessian of psi at the tet's current F) / (3 lambda + 2 mu),
-// for t in the range; 1 at rest.
+// for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations).
 template <class T> void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range tets, double* ratio);
 template <class T> void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range tets, double* ratio);
 
