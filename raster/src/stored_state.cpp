@@ -2,14 +2,11 @@
 // "displacement" (3 components, m) and the cell field "von_mises" (Pa) that `pliant run` writes
 // into every .vtu (engine run_scene.cpp), and the file's simulated time, from a "TimeValue"
 // field-data array or from the ParaView .pvd series that lists the file (the run writes
-// OUT/series.pvd for OUT/vtu/*.vtu). The engine's mesh reader keeps only points and cells, so
-// the arrays are read here: DataArrays inline as ascii or base64 binary (UInt32/UInt64 headers,
-// optionally vtkZLibDataCompressor, either byte order). Anything else (appended data, other
-// compressors) leaves the field out with a note; the picture can still be drawn.
-#include <zlib.h>
+// OUT/series.pvd for OUT/vtu/*.vtu). The arrays come from the engine's VTU reader (read_vtu with
+// VtuData); anything it cannot decode leaves the field out with a note, and the picture can still
+// be drawn. Only the .pvd lookup is parsed here.
 
 #include <algorithm>
-#include <bit>
 #include <cctype>
 #include <charconv>
 #include <cmath>
@@ -25,6 +22,7 @@
 #include <vector>
 
 #include "pliant/error.hpp"
+#include "pliant/mesh_io.hpp"
 #include "pliant/raster/render.hpp"
 
 namespace pliant::raster {
@@ -135,145 +133,6 @@ bool parse_double(std::string_view s, double& v) {
   return r.ec == std::errc() && r.ptr == s.data() + s.size() && !s.empty();
 }
 
-struct Encoding {
-  bool swap = false, zlib = false;
-  std::size_t header_bytes = 4;
-};
-
-template <class S>
-S load(const unsigned char* p, bool swap) {
-  unsigned char b[sizeof(S)];
-  std::memcpy(b, p, sizeof(S));
-  if (swap) std::reverse(b, b + sizeof(S));
-  S s;
-  std::memcpy(&s, b, sizeof(S));
-  return s;
-}
-
-// Base64 that may restart after padding (VTK encodes a compressed array's header and data apart).
-std::vector<unsigned char> base64(std::string_view s) {
-  std::vector<unsigned char> out;
-  unsigned quad[4];
-  int n = 0, pad = 0;
-  for (char ch : s) {
-    if (std::isspace(static_cast<unsigned char>(ch))) continue;
-    int v;
-    if (ch >= 'A' && ch <= 'Z') v = ch - 'A';
-    else if (ch >= 'a' && ch <= 'z') v = ch - 'a' + 26;
-    else if (ch >= '0' && ch <= '9') v = ch - '0' + 52;
-    else if (ch == '+') v = 62;
-    else if (ch == '/') v = 63;
-    else if (ch == '=' && n >= 2) v = 0, ++pad;
-    else throw std::runtime_error(fmt::format("invalid base64 character '{}'", ch));
-    quad[n++] = unsigned(v);
-    if (n == 4) {
-      const unsigned w = quad[0] << 18 | quad[1] << 12 | quad[2] << 6 | quad[3];
-      const unsigned char b[3] = {static_cast<unsigned char>(w >> 16), static_cast<unsigned char>(w >> 8),
-                                  static_cast<unsigned char>(w)};
-      out.insert(out.end(), b, b + 3 - std::min(pad, 2));
-      n = pad = 0;
-    }
-  }
-  if (n != 0) throw std::runtime_error("base64 data is cut short");
-  return out;
-}
-
-std::vector<unsigned char> payload(std::string_view body, const Encoding& enc) {
-  const auto bytes = base64(body);
-  const std::size_t hw = enc.header_bytes;
-  auto word = [&](std::size_t i) -> std::uint64_t {
-    if ((i + 1) * hw > bytes.size()) throw std::runtime_error("binary data is cut short");
-    return hw == 8 ? load<std::uint64_t>(&bytes[8 * i], enc.swap) : load<std::uint32_t>(&bytes[4 * i], enc.swap);
-  };
-  if (!enc.zlib) {
-    const std::uint64_t n = word(0);
-    if (n > bytes.size() - hw) throw std::runtime_error("binary data is cut short");
-    return {bytes.begin() + std::ptrdiff_t(hw), bytes.begin() + std::ptrdiff_t(hw + n)};
-  }
-  const std::uint64_t blocks = word(0), block = word(1), last = word(2);
-  if (blocks > bytes.size() / hw || block > (1u << 30) || last > block)
-    throw std::runtime_error("bad compression header");
-  std::vector<unsigned char> out;
-  std::size_t src = (3 + blocks) * hw;
-  for (std::uint64_t b = 0; b < blocks; ++b) {
-    const std::uint64_t csize = word(3 + b);
-    const std::uint64_t usize = (b + 1 == blocks && last != 0) ? last : block;
-    if (src > bytes.size() || csize > bytes.size() - src) throw std::runtime_error("binary data is cut short");
-    if (usize > 1100 * csize + 64) throw std::runtime_error("bad compression header");
-    const std::size_t at = out.size();
-    out.resize(at + usize);
-    uLongf got = uLongf(usize);
-    if (uncompress(out.data() + at, &got, &bytes[src], uLong(csize)) != Z_OK || got != usize)
-      throw std::runtime_error("corrupt zlib data");
-    src += csize;
-  }
-  return out;
-}
-
-// The values of a DataArray as doubles.
-std::vector<double> values_of(const Tag& da, const Encoding& enc) {
-  const std::string* type = da.attr("type");
-  const std::string format = da.attr("format") ? *da.attr("format") : "ascii";
-  std::vector<double> out;
-  if (format == "ascii") {
-    std::string_view b = da.body;
-    std::size_t i = 0;
-    while (i < b.size()) {
-      while (i < b.size() && std::isspace(static_cast<unsigned char>(b[i]))) ++i;
-      const std::size_t t = i;
-      while (i < b.size() && !std::isspace(static_cast<unsigned char>(b[i]))) ++i;
-      if (i == t) break;
-      double v = 0;
-      if (!parse_double(b.substr(t, i - t), v))
-        throw std::runtime_error(fmt::format("'{}' is not a number", b.substr(t, std::min<std::size_t>(i - t, 40))));
-      out.push_back(v);
-    }
-    return out;
-  }
-  if (format != "binary") throw std::runtime_error(fmt::format("format=\"{}\" is not supported (only ascii and binary)", format));
-  if (!type) throw std::runtime_error("no type");
-  const auto bytes = payload(da.body, enc);
-  auto convert = [&]<class S>(S) {
-    if (bytes.size() % sizeof(S) != 0) throw std::runtime_error(fmt::format("{} bytes is not a whole number of {}", bytes.size(), *type));
-    out.reserve(bytes.size() / sizeof(S));
-    for (std::size_t i = 0; i < bytes.size(); i += sizeof(S)) out.push_back(double(load<S>(&bytes[i], enc.swap)));
-  };
-  if (*type == "Float32") convert(float{});
-  else if (*type == "Float64") convert(double{});
-  else if (*type == "Int32") convert(std::int32_t{});
-  else if (*type == "Int64") convert(std::int64_t{});
-  else if (*type == "UInt32") convert(std::uint32_t{});
-  else if (*type == "UInt64") convert(std::uint64_t{});
-  else throw std::runtime_error(fmt::format("type \"{}\" is not supported", *type));
-  return out;
-}
-
-long long count_of(const Tag& t, const char* key) {
-  const std::string* v = t.attr(key);
-  long long n = -1;
-  if (v) std::from_chars(v->data(), v->data() + v->size(), n);
-  return n;
-}
-
-// The array named `name` in the section `section` (PointData, CellData, FieldData) of a piece,
-// with `components` components; nullopt when absent.
-std::optional<std::vector<double>> find_array(std::string_view piece, std::string_view section, std::string_view name,
-                                              int components, const Encoding& enc) {
-  const auto sec = next_tag(piece, section, 0);
-  if (!sec) return std::nullopt;
-  for (std::size_t pos = 0;;) {
-    const auto da = next_tag(sec->body, "DataArray", pos);
-    if (!da) return std::nullopt;
-    pos = da->end;
-    if (!da->attr("Name") || *da->attr("Name") != name) continue;
-    const std::string* nc = da->attr("NumberOfComponents");
-    if ((nc ? std::atoi(nc->c_str()) : 1) != components)
-      throw std::runtime_error(fmt::format("{} \"{}\" has {} components, expected {}", section, name, nc ? *nc : "1",
-                                           components));
-    return values_of(*da, enc);
-  }
-}
-
 }  // namespace
 
 std::optional<double> series_time(const fs::path& file) {
@@ -312,54 +171,35 @@ StoredFields read_stored_fields(const fs::path& file, const TetMesh& mesh) {
   StoredFields s;
   std::string ext = file.extension().string();
   std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+  // VTK XML only (.vtu, or SOFA's XML misnamed .vtk): the engine's reader gives the arrays too.
   const std::string text = ext == ".vtu" || ext == ".vtk" ? read_text(file) : std::string();
-  const auto vtk = next_tag(text, "VTKFile", 0);
-  if (vtk && vtk->attr("type") && *vtk->attr("type") == "UnstructuredGrid") {
-    Encoding enc;
-    if (const auto* order = vtk->attr("byte_order")) enc.swap = (*order == "BigEndian") != (std::endian::native == std::endian::big);
-    if (const auto* h = vtk->attr("header_type")) enc.header_bytes = *h == "UInt64" ? 8 : 4;
-    if (const auto* c = vtk->attr("compressor")) enc.zlib = *c == "vtkZLibDataCompressor";
-    const bool other_compressor = vtk->attr("compressor") && !vtk->attr("compressor")->empty() && !enc.zlib;
-    std::vector<double> disp, vm;
-    bool have_disp = true, have_vm = true;
-    long long points = 0, cells = 0;
+  if (text.find("<VTKFile") != std::string::npos) {
+    VtuData data;
     try {
-      if (other_compressor) throw std::runtime_error(fmt::format("compressor \"{}\" is not supported", *vtk->attr("compressor")));
-      // Field data: a "TimeValue" (VTK's name for the time of a data set).
-      if (const auto t = find_array(vtk->body, "FieldData", "TimeValue", 1, enc); t && t->size() == 1 && std::isfinite((*t)[0]))
-        s.time = (*t)[0];
-      for (std::size_t pos = 0;;) {
-        const auto piece = next_tag(vtk->body, "Piece", pos);
-        if (!piece) break;
-        pos = piece->end;
-        const long long np = count_of(*piece, "NumberOfPoints"), nc = count_of(*piece, "NumberOfCells");
-        if (np < 0 || nc < 0) throw std::runtime_error("a <Piece> without NumberOfPoints or NumberOfCells");
-        points += np;
-        cells += nc;
-        if (have_disp) {
-          const auto d = find_array(piece->body, "PointData", "displacement", 3, enc);
-          if (d && (long long)d->size() == 3 * np) disp.insert(disp.end(), d->begin(), d->end());
-          else have_disp = false;
-        }
-        if (have_vm) {
-          const auto v = find_array(piece->body, "CellData", "von_mises", 1, enc);
-          if (v && (long long)v->size() == nc) vm.insert(vm.end(), v->begin(), v->end());
-          else have_vm = false;
-        }
-      }
+      MeshLoadReport report;
+      read_vtu(file, report, &data);
     } catch (const std::exception& e) {
       s.note = fmt::format("{}: its fields cannot be read ({})", file.filename().string(), e.what());
-      have_disp = have_vm = false;
+      data = {};
     }
-    const bool same = std::size_t(points) == mesh.node_count() && std::size_t(cells) == mesh.tet_count();
+    if (!data.notes.empty() && s.note.empty())
+      s.note = fmt::format("{}: {}", file.filename().string(), data.notes.front());
+    if (const auto t = data.field.find("TimeValue");
+        t != data.field.end() && t->second.values.size() == 1 && std::isfinite(t->second.values[0]))
+      s.time = t->second.values[0];
+    const auto d = data.point.find("displacement");
+    const auto v = data.cell.find("von_mises");
+    const bool have_disp = d != data.point.end() && d->second.components == 3;
+    const bool have_vm = v != data.cell.end() && v->second.components == 1;
+    const bool same = data.points == mesh.node_count() && data.cells == mesh.tet_count();
     if (!same && (have_disp || have_vm)) {
       s.note = fmt::format("{}: its fields do not match the mesh as read ({} points and {} cells in the file, {} nodes and "
                            "{} tets used)",
-                           file.filename().string(), points, cells, mesh.node_count(), mesh.tet_count());
-      have_disp = have_vm = false;
+                           file.filename().string(), data.points, data.cells, mesh.node_count(), mesh.tet_count());
+    } else {
+      if (have_disp && data.points > 0) s.displacement = std::move(d->second.values);
+      if (have_vm && data.cells > 0) s.von_mises = std::move(v->second.values);
     }
-    if (have_disp && points > 0) s.displacement = std::move(disp);
-    if (have_vm && cells > 0) s.von_mises = std::move(vm);
   }
   if (!s.time) s.time = series_time(file);
   return s;

@@ -453,6 +453,58 @@ TEST(BinaryVtuErrors, UnsupportedCompressorIsNamed) {
   EXPECT_THAT(load_error(path), ::testing::AllOf(StartsWith(path.string() + ":2: "), HasSubstr("vtkLZ4DataCompressor")));
 }
 
+TEST(VtuData, PointCellAndFieldArraysComeWithTheMesh) {
+  // Two pieces of one tet each, with a point vector, a cell scalar and the time; an array in
+  // appended format is left out with a note, and one present in only the first piece is dropped.
+  const fs::path dir = fs::temp_directory_path() / "pliant_vtu_data";
+  fs::create_directories(dir);
+  const std::string piece_a = R"(<Piece NumberOfPoints="4" NumberOfCells="1">
+  <PointData><DataArray type="Float64" Name="displacement" NumberOfComponents="3" format="ascii">
+    0 0 0  1 0 0  0 2 0  0 0 3</DataArray>
+    <DataArray type="Float32" Name="only_here" format="ascii">1 2 3 4</DataArray></PointData>
+  <CellData><DataArray type="Float64" Name="von_mises" format="ascii">5.5</DataArray>
+    <DataArray type="Float64" Name="packed" format="appended" offset="0"/></CellData>
+  <Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">0 0 0 1 0 0 0 1 0 0 0 1</DataArray></Points>
+  <Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+    <DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+    <DataArray type="UInt8" Name="types" format="ascii">10</DataArray></Cells></Piece>)";
+  const std::string piece_b = R"(<Piece NumberOfPoints="4" NumberOfCells="1">
+  <PointData><DataArray type="Float64" Name="displacement" NumberOfComponents="3" format="ascii">
+    4 0 0  0 5 0  0 0 6  7 7 7</DataArray></PointData>
+  <CellData><DataArray type="Float64" Name="von_mises" format="ascii">6.5</DataArray></CellData>
+  <Points><DataArray type="Float64" NumberOfComponents="3" format="ascii">2 0 0 3 0 0 2 1 0 2 0 1</DataArray></Points>
+  <Cells><DataArray type="Int32" Name="connectivity" format="ascii">0 1 2 3</DataArray>
+    <DataArray type="Int32" Name="offsets" format="ascii">4</DataArray>
+    <DataArray type="UInt8" Name="types" format="ascii">10</DataArray></Cells></Piece>)";
+  write_file(dir / "two.vtu", std::string(R"(<?xml version="1.0"?>
+<VTKFile type="UnstructuredGrid" version="1.0" byte_order="LittleEndian"><UnstructuredGrid>
+<FieldData><DataArray type="Float64" Name="TimeValue" NumberOfTuples="1" format="ascii">0.25</DataArray></FieldData>
+)") + piece_a + piece_b + "</UnstructuredGrid></VTKFile>\n");
+  MeshLoadReport report;
+  VtuData data;
+  const TetMesh mesh = read_vtu(dir / "two.vtu", report, &data);
+  EXPECT_EQ(mesh.node_count(), 8u);
+  EXPECT_EQ(mesh.tet_count(), 2u);
+  EXPECT_EQ(data.points, 8u);
+  EXPECT_EQ(data.cells, 2u);
+  ASSERT_TRUE(data.point.count("displacement"));
+  EXPECT_EQ(data.point.at("displacement").components, 3);
+  ASSERT_EQ(data.point.at("displacement").values.size(), 24u);
+  EXPECT_EQ(data.point.at("displacement").values[23], 7.0);
+  ASSERT_TRUE(data.cell.count("von_mises"));
+  EXPECT_THAT(data.cell.at("von_mises").values, ::testing::ElementsAre(5.5, 6.5));
+  ASSERT_TRUE(data.field.count("TimeValue"));
+  EXPECT_EQ(data.field.at("TimeValue").values.at(0), 0.25);
+  EXPECT_FALSE(data.cell.count("packed"));      // appended: not supported, noted
+  EXPECT_FALSE(data.point.count("only_here"));  // absent from the second piece
+  ASSERT_EQ(data.notes.size(), 2u);
+  EXPECT_THAT(data.notes[0], ::testing::HasSubstr("appended"));
+  EXPECT_THAT(data.notes[1], ::testing::HasSubstr("\"only_here\" is missing from some <Piece>"));
+  // Without VtuData the same file reads as a plain mesh.
+  EXPECT_EQ(read_vtu(dir / "two.vtu", report).tet_count(), 2u);
+  fs::remove_all(dir);
+}
+
 TEST(BinaryVtuErrors, BadHeaderCountsAreCaught) {
   // Raw header says 1 MB for a 108-byte array; zlib header claims 2^20 blocks.
   VtuOptions o;

@@ -2,6 +2,10 @@
 // finalize_tet_mesh) or throws InputError naming the file and the line (or element number).
 #pragma once
 #include <filesystem>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
 
 #include "pliant/tet_mesh.hpp"
 
@@ -15,6 +19,23 @@ TetMesh read_tet_mesh(const std::filesystem::path& path, MeshLoadReport* report 
 TetMesh read_gmsh(const std::filesystem::path& path, MeshLoadReport& report);
 TetMesh read_vtk_legacy(const std::filesystem::path& path, MeshLoadReport& report);
 TetMesh read_vtu(const std::filesystem::path& path, MeshLoadReport& report);
+
+// What a .vtu holds besides its mesh (pliant run writes "displacement" per point and
+// "von_mises" per cell, see vtu_writer.hpp): every DataArray of <PointData> and <CellData>, over
+// all pieces in file order, and the <FieldData> of the grid ("TimeValue"), as doubles. Indices
+// are those of the file: point i is mesh node i, cell c is mesh tet c, only when the file's
+// counts equal the mesh's (no cell skipped, no vertex dropped). An array that cannot be read
+// (appended data, wrong length, a non-number) is left out and named in `notes`: the mesh still loads.
+struct VtuArray {
+  int components = 1;
+  std::vector<double> values;  // components per tuple, tuple-major
+};
+struct VtuData {
+  std::map<std::string, VtuArray> point, cell, field;
+  std::size_t points = 0, cells = 0;  // in the file, over all pieces
+  std::vector<std::string> notes;
+};
+TetMesh read_vtu(const std::filesystem::path& path, MeshLoadReport& report, VtuData* data);
 TetMesh read_tetgen(const std::filesystem::path& path, MeshLoadReport& report);
 
 }  // namespace pliant

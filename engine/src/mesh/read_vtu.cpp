@@ -17,6 +17,8 @@
 #include <optional>
 #include <string>
 #include <type_traits>
+
+#include "pliant/error.hpp"
 #include <vector>
 
 #include <fmt/format.h>
@@ -180,8 +182,8 @@ S load(const unsigned char* p, bool swap) {
 
 class VtuReader {
  public:
-  VtuReader(std::string source, std::string_view text, MeshLoadReport& report)
-      : src_(std::move(source)), text_(text), report_(report) {}
+  VtuReader(std::string source, std::string_view text, MeshLoadReport& report, VtuData* data)
+      : src_(std::move(source)), text_(text), report_(report), data_(data) {}
 
   TetMesh read() {
     const XmlNode doc = XmlScanner(src_, text_).parse();
@@ -209,6 +211,20 @@ class VtuReader {
     bool any_piece = false;
     for (const XmlNode& piece : grid->children)
       if (piece.name == "Piece") read_piece(piece), any_piece = true;
+    if (data_) {
+      if (const XmlNode* fd = grid->child("FieldData")) read_data_arrays(*fd, data_->field, std::nullopt);
+      // A point or cell array must cover every piece.
+      for (auto* section : {&data_->point, &data_->cell}) {
+        const std::size_t tuples = section == &data_->point ? data_->points : data_->cells;
+        for (auto it = section->begin(); it != section->end();)
+          if (it->second.values.size() != tuples * static_cast<std::size_t>(it->second.components)) {
+            data_->notes.push_back(fmt::format("{}: DataArray \"{}\" is missing from some <Piece>", src_, it->first));
+            it = section->erase(it);
+          } else {
+            ++it;
+          }
+      }
+    }
     if (!any_piece) error(*grid, "no <Piece> in <UnstructuredGrid>");
     finalize_tet_mesh_named(mesh_, src_, report_,
                             [this](std::size_t i) { return fmt::format(": cell {}", tet_cell_[i]); });
@@ -282,6 +298,47 @@ class VtuReader {
     if (begin != static_cast<long long>(conn.size()))
       error(array_named(*cells, "connectivity"),
             fmt::format("the connectivity has {} values, but the offsets end at {}", conn.size(), begin));
+    if (data_) {
+      if (const XmlNode* pd = piece.child("PointData")) read_data_arrays(*pd, data_->point, np);
+      if (const XmlNode* cd = piece.child("CellData")) read_data_arrays(*cd, data_->cell, nc);
+      data_->points += static_cast<std::size_t>(np);
+      data_->cells += static_cast<std::size_t>(nc);
+    }
+  }
+
+  // The DataArrays of a <PointData>, <CellData> or <FieldData> section, appended to `into` by
+  // name; `tuples` values per component expected (for fields: any). An array that cannot be read
+  // is dropped (with a note), and so is one missing from an earlier piece: a field must cover the
+  // whole file to be used.
+  void read_data_arrays(const XmlNode& section, std::map<std::string, VtuArray>& into,
+                        std::optional<long long> tuples) {
+    const std::size_t earlier = section.name == "PointData" ? data_->points : data_->cells;
+    for (const XmlNode& da : section.children) {
+      if (da.name != "DataArray" || !da.attr("Name")) continue;
+      const std::string name = *da.attr("Name");
+      long long nc = 1;
+      if (const auto* c = da.attr("NumberOfComponents"); c && (!parse_int(*c, nc) || nc < 1)) nc = -1;
+      const bool first_piece = tuples ? earlier == 0 : true;
+      auto it = into.find(name);
+      if (!first_piece && it == into.end()) continue;  // absent from an earlier piece
+      try {
+        if (nc < 1) error(da, fmt::format("DataArray \"{}\": bad NumberOfComponents", name));
+        std::optional<long long> expected;
+        if (tuples) expected = *tuples * nc;
+        std::vector<double> v = read_array<double>(da, name.c_str(), expected);
+        if (it == into.end()) {
+          into[name] = VtuArray{static_cast<int>(nc), std::move(v)};
+        } else if (it->second.components != nc) {
+          error(da, fmt::format("DataArray \"{}\": {} components here, {} in an earlier piece", name, nc,
+                                it->second.components));
+        } else {
+          it->second.values.insert(it->second.values.end(), v.begin(), v.end());
+        }
+      } catch (const InputError& e) {
+        data_->notes.push_back(e.what());
+        into.erase(name);
+      }
+    }
   }
 
   // A DataArray as T (double for coordinates, long long for indices); `expected` values if set.
@@ -441,6 +498,7 @@ class VtuReader {
   std::string src_;
   std::string_view text_;
   MeshLoadReport& report_;
+  VtuData* data_ = nullptr;  // the data arrays too, when asked
   bool swap_ = false, zlib_ = false;
   std::size_t header_bytes_ = 4;
   TetMesh mesh_;
@@ -450,10 +508,13 @@ class VtuReader {
 
 }  // namespace
 
-TetMesh read_vtu(const std::filesystem::path& path, MeshLoadReport& report) {
+TetMesh read_vtu(const std::filesystem::path& path, MeshLoadReport& report) { return read_vtu(path, report, nullptr); }
+
+TetMesh read_vtu(const std::filesystem::path& path, MeshLoadReport& report, VtuData* data) {
   report = {};
+  if (data) *data = {};
   const std::string text = meshio::read_file(path);
-  return VtuReader(path.string(), text, report).read();
+  return VtuReader(path.string(), text, report, data).read();
 }
 
 }  // namespace pliant
