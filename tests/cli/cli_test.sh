@@ -4,19 +4,7 @@
 set -u
 pliant=$1; src=$2; work=$3
 rm -rf "$work"; mkdir -p "$work"
-passed=0; failed=0
-check() {  # check NAME EXPECTED_EXIT GREP_PATTERN(stderr+stdout, or "") -- command...
-  local name=$1 want=$2 pattern=$3; shift 4
-  "$@" >"$work/$name.out" 2>&1; local got=$?
-  if [ "$got" -ne "$want" ]; then
-    echo "FAIL $name: exit $got, expected $want"; sed 's/^/    /' "$work/$name.out" | tail -5; failed=$((failed+1)); return
-  fi
-  if [ -n "$pattern" ] && ! grep -qE -- "$pattern" "$work/$name.out"; then
-    echo "FAIL $name: output lacks /$pattern/"; sed 's/^/    /' "$work/$name.out" | tail -5; failed=$((failed+1)); return
-  fi
-  echo "ok   $name"; passed=$((passed+1))
-}
-scene() { printf '%s\n' "$2" > "$work/$1.json"; }
+. "$(dirname "$0")/cli_lib.sh"  # check, ok, fail, png_size, scene
 
 box='"mesh": {"box": {"min": [0,0,0], "max": [0.2,0.05,0.05], "cells": [8,2,2]}}'
 fixed='"fixed": [{"box": {"min": [-1,-1,-1], "max": [0.0001,1,1]}}]'
@@ -119,7 +107,6 @@ fi
 # study: the tables and the plots, their paths printed. test_study_plots checks the pixels; here,
 # that the files are PNGs of 800x600 (from the IHDR chunk) and not near-empty (a blank 800x600
 # plot compresses to about 2 KB; one with axes, labels and points, to more than 8 KB).
-png_size() { od -An -tu1 -j16 -N8 "$1" 2>/dev/null | awk '{printf "%dx%d", $1*16777216+$2*65536+$3*256+$4, $5*16777216+$6*65536+$7*256+$8}'; }
 bar="$src/scenes/validation/slender_bar.json"
 check study_plots 0 "results in .*study\.csv.*pareto\.png, .*convergence\.png" -- "$pliant" study "$bar" \
   --sweep 'bodies[0].mesh.box.cells=[10,1,1]|[20,1,1]' --sweep 'bodies[0].model="linear"|"corotational"' --out "$work/study"
