@@ -8,7 +8,7 @@
 
 #include "commands.hpp"
 #include "pliant/error.hpp"
-#include "pliant/stability.hpp"
+#include "pliant/perf/stability.hpp"
 
 namespace pliant::cli {
 

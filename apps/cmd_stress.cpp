@@ -6,7 +6,7 @@
 
 #include "commands.hpp"
 #include "pliant/error.hpp"
-#include "pliant/stability.hpp"
+#include "pliant/perf/stability.hpp"
 
 namespace pliant::cli {
 
@@ -27,7 +27,7 @@ Command add_stress_command(CLI::App& app) {
   sub->add_option("--max-scenes", o->max_scenes, "Stop after this many scenes");
   sub->add_option("--repeat-every", o->repeat_every, "Re-run every Nth scene with another thread count (0: never)")
       ->capture_default_str();
-  sub->add_option("--meshes", o->meshes, "Folders of shipped meshes (default: ../shared/meshes, shared/meshes)");
+  sub->add_option("--meshes", o->meshes, "Folders of meshes to draw scenes from (default: the shipped data/meshes; env PLIANT_MESHES)");
   sub->add_option("--report", o->report, "Also write the final report to this file");
   sub->add_option("--scene", o->scene, "Run only the scene of this seed (as printed for a failure), e.g. 0x71c1...");
   return {sub, [o]() -> int {
@@ -40,8 +40,10 @@ Command add_stress_command(CLI::App& app) {
             so.max_scenes = o->max_scenes;
             so.repeat_every = o->repeat_every;
             if (o->meshes.empty()) {
-              so.mesh_dirs = {"../shared/meshes", "shared/meshes"};
-              if (const char* env = std::getenv("PLIANT_SHARED_MESHES")) so.mesh_dirs.insert(so.mesh_dirs.begin(), env);
+              if (const char* env = std::getenv("PLIANT_MESHES"))
+                so.mesh_dirs = {env};
+              else
+                so.mesh_dirs = {PLIANT_DATA_MESHES};
             } else {
               for (const auto& m : o->meshes) so.mesh_dirs.emplace_back(m);
             }

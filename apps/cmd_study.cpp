@@ -10,8 +10,8 @@
 
 #include "commands.hpp"
 #include "pliant/error.hpp"
-#include "pliant/raster/study_plots.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study_plots.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::cli {
 

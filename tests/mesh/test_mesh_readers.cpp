@@ -5,7 +5,7 @@
 //  - binary VTU (base64, UInt32/UInt64 headers, zlib, both byte orders) written by a tiny
 //    generator here;
 //  - cut or corrupted copies of the good files never crash: they load or throw InputError;
-//  - the real SOFA meshes in PLIANT_SHARED_MESHES, for those present.
+//  - the real SOFA meshes shipped in data/meshes (PLIANT_DATA_MESHES).
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <zlib.h>
@@ -572,7 +572,7 @@ TEST(MeshReaders, CutOrCorruptedFilesLoadCleanlyOrThrowInputError) {
   EXPECT_GT(loaded, 0u);
 }
 
-// ---------------------------------------------------------------- real meshes (SOFA), if present
+// ---------------------------------------------------------------- real meshes (SOFA, data/meshes)
 
 struct RealMesh {
   const char* file;
@@ -580,8 +580,8 @@ struct RealMesh {
   double volume;  // m^3 (scene units), sum of tet volumes
 };
 
-TEST(RealMeshes, PresentFilesLoadWithTheDocumentedCounts) {
-  // Tet counts and skipped cells as in ../shared/meshes/README.md. Node counts are after
+TEST(RealMeshes, ShippedFilesLoadWithTheDocumentedCounts) {
+  // Tet counts and skipped cells as in data/meshes/README.md. Node counts are after
   // dropping unused vertices: the raptors have 3 and 2 unused ones (README: 2996 and 5992).
   // Cube volumes are exact (7^3 and 1); the others are this reader's sums, as regression values.
   const RealMesh table[] = {
@@ -596,13 +596,11 @@ TEST(RealMeshes, PresentFilesLoadWithTheDocumentedCounts) {
       {"Armadillo_Tetra_4406.vtu", 1446, 4406, 0, 231.214307},
       {"Bunny.vtk", 1911, 5897, 0, 152.453392},         // VTK XML despite the name
   };
-  const fs::path dir = PLIANT_SHARED_MESHES;
-  std::size_t present = 0;
+  const fs::path dir = PLIANT_DATA_MESHES;
   for (const RealMesh& r : table) {
     const fs::path path = dir / r.file;
-    if (!fs::exists(path)) continue;
-    ++present;
     SCOPED_TRACE(r.file);
+    ASSERT_TRUE(fs::is_regular_file(path)) << path << " is missing: the repository ships it";
     MeshLoadReport report;
     const TetMesh m = read_tet_mesh(path, &report);
     EXPECT_EQ(m.tet_count(), r.tets);
@@ -611,9 +609,5 @@ TEST(RealMeshes, PresentFilesLoadWithTheDocumentedCounts) {
     EXPECT_EQ(report.reoriented_tets, 0u);  // SOFA's meshes are all positively oriented
     EXPECT_NEAR(total_volume(m), r.volume, 1e-8 * r.volume);
     expect_finalized(m);
-  }
-  // When the folder is there, every file of the table must be there too.
-  if (fs::exists(dir / "README.md")) {
-    EXPECT_EQ(present, std::size(table));
   }
 }

@@ -249,11 +249,11 @@ TEST_F(CgalMeshing, ClosedSurfaceFiles) {
 // that ends with a NUL byte (read leniently); on both, feature protection leaves specks and the
 // mesher falls back to a smooth domain.
 TEST_F(CgalMeshing, SharedSurfaces) {
-  const fs::path dir = PLIANT_SHARED_MESHES;
+  const fs::path dir = PLIANT_DATA_MESHES;
   const struct { const char* file; double s, volume; } cases[] = {
       {"liver-smooth.obj", 0.3, 39.27}, {"raptor_8kp.obj", 0.3, 0}};
   for (const auto& c : cases) {
-    if (!fs::exists(dir / c.file)) continue;  // ../shared is optional
+    ASSERT_TRUE(fs::is_regular_file(dir / c.file)) << c.file << " is missing: the repository ships it";
     const auto t0 = std::chrono::steady_clock::now();
     const TetMesh m = mesh_surface_file(dir / c.file, c.s);
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

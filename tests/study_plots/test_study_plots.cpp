@@ -10,8 +10,8 @@
 #include "pliant/error.hpp"
 #include "pliant/raster/colormap.hpp"
 #include "pliant/raster/image.hpp"
-#include "pliant/raster/study_plots.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study_plots.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::raster {
 namespace {

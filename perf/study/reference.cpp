@@ -12,7 +12,7 @@
 #include <sstream>
 
 #include "pliant/error.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::study {
 namespace {

@@ -5,7 +5,7 @@
 #include <fmt/format.h>
 
 #include "pliant/kernels/node_passes.hpp"
-#include "pliant/stability.hpp"
+#include "pliant/perf/stability.hpp"
 
 namespace pliant::stability {
 namespace {

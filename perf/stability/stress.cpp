@@ -14,7 +14,7 @@
 #include "pliant/mesh_io.hpp"
 #include "pliant/meshing.hpp"
 #include "pliant/run.hpp"
-#include "pliant/stability.hpp"
+#include "pliant/perf/stability.hpp"
 
 namespace pliant::stability {
 namespace {

@@ -14,7 +14,7 @@
 
 #include "pliant/error.hpp"
 #include "pliant/scene.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::study {
 namespace fs = std::filesystem;

@@ -10,7 +10,7 @@
 
 #include "pliant/error.hpp"
 #include "pliant/kernels/node_passes.hpp"
-#include "pliant/stability.hpp"
+#include "pliant/perf/stability.hpp"
 
 namespace pliant::stability {
 namespace {

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "pliant/raster/plot.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::raster {
 

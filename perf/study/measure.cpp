@@ -8,7 +8,7 @@
 
 #include "pliant/error.hpp"
 #include "pliant/run.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study.hpp"
 #include "pliant/world.hpp"
 
 namespace pliant::study {

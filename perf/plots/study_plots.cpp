@@ -1,6 +1,6 @@
 // The Pareto and convergence plots of a study (see study_plots.hpp): which runs go where, which
 // sweep is the x axis of the convergence, axis scales and labels, and the two PNG files.
-#include "pliant/raster/study_plots.hpp"
+#include "pliant/perf/study_plots.hpp"
 
 #include <fmt/format.h>
 

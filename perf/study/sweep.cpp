@@ -6,7 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pliant/error.hpp"
-#include "pliant/study.hpp"
+#include "pliant/perf/study.hpp"
 
 namespace pliant::study {
 namespace {
