@@ -239,15 +239,11 @@ SurfaceMesh read_closed_surface(const std::string& file) {
 
 bool meshing_available() { return true; }
 
-TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size) {
-  const std::string file = surface.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(surface, ec))
-    throw InputError(fmt::format("surface file '{}': no such file", file));
-  if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, "'" + file + "'");
-  SurfaceMesh sm = read_closed_surface(file);
-  check_cell_size(cell_size, std::abs(PMP::volume(sm)), "'" + file + "'");
+namespace {
 
+// Mesh_3 of the inside of a closed surface (mesh_surface_file and mesh_closed_surface).
+TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& what) {
+  check_cell_size(cell_size, std::abs(PMP::volume(sm)), what);
   namespace P = CGAL::parameters;
   const double s = cell_size;
   const CGAL::Mesh_criteria_3<SurfaceTr> criteria(
@@ -266,7 +262,33 @@ TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size
     const SurfaceDomain smooth(sm);
     mesh = run_mesh_3<SurfaceC3t3>(smooth, criteria);
   }
-  return finalized(std::move(mesh), "'" + file + "'");
+  return finalized(std::move(mesh), what);
+}
+
+}  // namespace
+
+TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size) {
+  const std::string file = surface.string();
+  std::error_code ec;
+  if (!std::filesystem::is_regular_file(surface, ec))
+    throw InputError(fmt::format("surface file '{}': no such file", file));
+  if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, "'" + file + "'");
+  SurfaceMesh sm = read_closed_surface(file);
+  return mesh_inside(sm, cell_size, "'" + file + "'");
+}
+
+TetMesh mesh_closed_surface(const TriangleSurface& surface, double cell_size, const std::string& what) {
+  if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, what);
+  SurfaceMesh sm;
+  std::vector<SurfaceMesh::Vertex_index> v;
+  v.reserve(surface.point_count());
+  for (std::size_t i = 0; i < surface.point_count(); ++i)
+    v.push_back(sm.add_vertex(Point(surface.points[3 * i], surface.points[3 * i + 1], surface.points[3 * i + 2])));
+  for (const auto& t : surface.triangles)
+    if (sm.add_face(v[std::size_t(t[0])], v[std::size_t(t[1])], v[std::size_t(t[2])]) == SurfaceMesh::null_face())
+      throw InputError(fmt::format("meshing {}: the surface is not manifold", what));
+  if (!CGAL::is_closed(sm)) throw InputError(fmt::format("meshing {}: the surface is not closed", what));
+  return mesh_inside(sm, cell_size, what);
 }
 
 TetMesh mesh_implicit_shape(const std::string& name, double cell_size) {

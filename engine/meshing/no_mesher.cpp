@@ -25,4 +25,10 @@ TetMesh mesh_implicit_shape(const std::string& name, double /*cell_size*/) {
   no_cgal("implicit shape '" + name + "'");
 }
 
+TriangleSurface simplify_surface(const TriangleSurface&, std::size_t, const std::string& what) {
+  no_cgal(what + " (simplification for a coarser level)");
+}
+
+TetMesh mesh_closed_surface(const TriangleSurface&, double, const std::string& what) { no_cgal(what); }
+
 }  // namespace pliant

@@ -56,4 +56,56 @@ bool Executor::run_all(std::size_t n, std::size_t grain, PredFn fn, const void* 
   return all.load();
 }
 
+void Executor::split(std::size_t count, std::size_t (*n_of)(const void*, std::size_t),
+                     std::size_t (*grain_of)(const void*, std::size_t), const void* segments) {
+  chunks_.clear();
+  for (std::size_t i = 0; i < count; ++i) {
+    const std::size_t n = n_of(segments, i), grain = std::max<std::size_t>(grain_of(segments, i), 1);
+    for (std::size_t b = 0; b < n; b += grain) chunks_.push_back({std::uint32_t(i), Range{b, std::min(n, b + grain)}});
+  }
+}
+
+void Executor::run_segments(const Segment* s, std::size_t count) {
+  split(count, [](const void* p, std::size_t i) { return static_cast<const Segment*>(p)[i].n; },
+        [](const void* p, std::size_t i) { return static_cast<const Segment*>(p)[i].grain; }, s);
+  if (chunks_.empty()) return;
+  if (!arena_ || chunks_.size() == 1) {
+    for (const Chunk& c : chunks_) s[c.segment].fn(s[c.segment].ctx, c.range);
+    return;
+  }
+  arena_->arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size(), 1),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                          const Chunk& c = chunks_[i];
+                          s[c.segment].fn(s[c.segment].ctx, c.range);
+                        }
+                      },
+                      tbb::simple_partitioner());
+  });
+}
+
+bool Executor::run_segments_all(const PredicateSegment* s, std::size_t count) {
+  split(count, [](const void* p, std::size_t i) { return static_cast<const PredicateSegment*>(p)[i].n; },
+        [](const void* p, std::size_t i) { return static_cast<const PredicateSegment*>(p)[i].grain; }, s);
+  if (chunks_.empty()) return true;
+  if (!arena_ || chunks_.size() == 1) {
+    bool all = true;
+    for (const Chunk& c : chunks_) all &= s[c.segment].fn(s[c.segment].ctx, c.range);
+    return all;
+  }
+  std::atomic<bool> all{true};
+  arena_->arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, chunks_.size(), 1),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        for (std::size_t i = r.begin(); i < r.end(); ++i) {
+                          const Chunk& c = chunks_[i];
+                          if (!s[c.segment].fn(s[c.segment].ctx, c.range)) all.store(false, std::memory_order_relaxed);
+                        }
+                      },
+                      tbb::simple_partitioner());
+  });
+  return all.load();
+}
+
 }  // namespace pliant

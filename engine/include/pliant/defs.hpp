@@ -77,9 +77,34 @@ struct MeshSourceDef {
   Vec3d translate{0, 0, 0};
 };
 
+// Which level simulates which part of a body (MultiresolutionDef::active). Outside every region
+// the coarsest level is active.
+struct ActiveRegionDef {
+  int level = 0;       // 0 = coarsest .. levels - 1 = finest
+  RegionDef region;    // box, sphere or nodes (nodes: of the finest level's mesh)
+};
+struct ActiveDef {
+  enum class Kind { finest, coarsest, level, regions } kind = Kind::finest;
+  int level = 0;                         // Kind::level
+  std::vector<ActiveRegionDef> regions;  // Kind::regions
+};
+
+// Several resolutions of one body simulated at once (thesis ch. 5; docs/multiresolution.md).
+// Level levels - 1 is the body's mesh as given; each coarser level is an independent tet mesh of
+// the same object: a box at cells / ratio^k, a surface (or the boundary of an implicit shape or of
+// a volume file) simplified to about 1/ratio^2 of the faces per level and meshed at
+// cell_size * ratio^k; or the meshes listed in `coarser` (coarse to fine).
+struct MultiresolutionDef {
+  int levels = 1;      // N >= 1; 1 = a single-resolution body
+  double ratio = 2;    // r > 1: resolution ratio between neighbouring levels
+  std::vector<MeshSourceDef> coarser;  // explicit coarser levels, coarse to fine (N = size + 1)
+  ActiveDef active;
+};
+
 struct BodyDef {
   std::string name = "body";
   MeshSourceDef mesh;
+  MultiresolutionDef multiresolution;
   MaterialDef material;
   ForceModel model = ForceModel::corotational;
   std::vector<RegionDef> fixed;                 // nodes held at their rest position
@@ -98,11 +123,19 @@ struct TimeStepDef {
   bool adapt = true;
 };
 
+// How the levels of multiresolution bodies are spread over the fine ticks (docs/multiresolution.md).
+// staggered: a level of period 2^k computes its element pass in 2^k slices, one per tick, from the
+// state at the start of its window, so that every tick costs about the same; naive: the whole pass
+// on the last tick of the window (every coarse level on the same tick). Both give the same bits.
+enum class Schedule { staggered, naive };
+const char* to_string(Schedule s);  // "staggered" | "naive"
+
 struct WorldDef {
   Vec3d gravity{0, 0, -9.81};   // m/s^2
   Precision precision = Precision::float64;
   int threads = 0;              // 0: all cores the process may use
   TimeStepDef time_step;
+  Schedule schedule = Schedule::staggered;
 };
 
 struct ProbeDef {

@@ -8,6 +8,7 @@
 #include "pliant/aligned.hpp"
 #include "pliant/defs.hpp"
 #include "pliant/kernels/node_passes.hpp"
+#include "pliant/kernels/range.hpp"
 
 namespace pliant {
 
@@ -50,7 +51,23 @@ struct Level {
                                               //   max(omega_geometric, omega_measured / 0.98)
   double stable_dt = 0;                       // s, stable step of this level: courant x (2 / omega_max),
                                               //   tightened by damping (docs/architecture.md)
-  int period = 1;                             // in fine ticks (multiresolution; 1 for L = 0)
+  int period = 1;                             // fine ticks per step of this level (multiresolution; 1 otherwise)
+
+  // ---- multiresolution (docs/multiresolution.md); a single-level body steps every tet, no ghosts ----
+  std::vector<Range> stepped_runs;   // the tets this level steps, as sorted runs of tet indices
+  std::size_t stepped_count = 0;     // tets in stepped_runs
+  // Ghost nodes: corners of stepped tets whose position and velocity come from active nodes of
+  // coarser levels; ghost i reads entries ghost_offsets[i] .. ghost_offsets[i+1].
+  AlignedVector<std::int32_t> ghosts, ghost_offsets, ghost_source_level, ghost_source_node;
+  AlignedVector<double> ghost_weight;
+  // Receivers: this level's active nodes that feed ghosts of finer levels; the forces on those
+  // ghosts come back to them as impulses (entries receive_offsets[i] .. [i+1], sorted).
+  AlignedVector<std::int32_t> receivers, receive_offsets, receive_ghost_level, receive_ghost_node;
+  AlignedVector<double> receive_weight;
+  AlignedVector<T> impulse[3];       // N s received since this level last integrated; empty without receivers
+  double window_dt = 0;              // s elapsed in this level's current window
+  double window_start = 0;           // s, the time at which the current window began (of the positions)
+  bool coupled() const { return !ghosts.empty() || !receivers.empty(); }
 };
 
 }  // namespace pliant

@@ -2,6 +2,9 @@
 // its own library because CGAL is slow to compile; without CGAL these throw InputError saying
 // that the build has no meshing.
 #pragma once
+#include <array>
+#include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -21,6 +24,26 @@ TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size
 // rounded cylinder along x, 0.2 m long, radius 0.03 m (see engine/meshing/implicit_shapes.cpp).
 TetMesh mesh_implicit_shape(const std::string& name, double cell_size);
 std::vector<std::string> implicit_shape_names();
+
+// A triangle surface: interleaved points (m) and triangles oriented outwards (counter-clockwise
+// seen from outside). The boundary of a tet mesh (boundary_surface), or a simplified copy of one.
+struct TriangleSurface {
+  std::vector<double> points;
+  std::vector<std::array<std::int32_t, 3>> triangles;
+  std::size_t point_count() const { return points.size() / 3; }
+};
+
+// The boundary of a tet mesh as a surface of its own (unused points dropped). No CGAL needed.
+TriangleSurface boundary_surface(const TetMesh& mesh);
+
+// Garland-Heckbert edge collapse (CGAL Surface_mesh_simplification, plane quadrics) of a closed
+// surface to about `faces` triangles (never fewer than 4; a surface already that small is returned
+// as it is). Deterministic. `what` names the surface in messages.
+TriangleSurface simplify_surface(const TriangleSurface& surface, std::size_t faces, const std::string& what);
+
+// The inside of a closed, manifold surface meshed at cell size `cell_size` (m), with the settings
+// and the reproducibility of mesh_surface_file. `what` names the surface in messages.
+TetMesh mesh_closed_surface(const TriangleSurface& surface, double cell_size, const std::string& what);
 
 // Signed function of a shipped shape (negative inside), for tests and for the mesher.
 double implicit_shape_value(const std::string& name, const Vec3d& p);

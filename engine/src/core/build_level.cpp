@@ -27,8 +27,10 @@ std::string describe(const RegionDef& r) {
 
 // Nodes of the mesh inside a region (rest positions), with a tolerance of 1e-9 of the mesh size
 // so that a box face placed exactly on a mesh face selects it.
+}  // namespace
+
 std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, const std::string& what,
-                                       const std::string& body) {
+                                       const std::string& body, bool may_be_empty) {
   std::vector<std::int32_t> out;
   const std::size_t n = mesh.node_count();
   if (r.kind == RegionDef::Kind::nodes) {
@@ -59,13 +61,15 @@ std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, 
       }
       if (inside) out.push_back(std::int32_t(i));
     }
-    if (out.empty())
+    if (out.empty() && !may_be_empty)
       throw InputError(fmt::format(
           "body '{}': {} ({}) selects no node; the body spans [{}, {}, {}]..[{}, {}, {}]", body, what, describe(r),
           lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]));
   }
   return out;
 }
+
+namespace {
 
 void check_material(const MaterialDef& m, const std::string& body) {
   auto bad = [&](const char* field, double value, const char* rule) {
@@ -108,7 +112,8 @@ Vec3d MotionState::offset_at(double time) const {
 
 template <class T>
 Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
-                     Executor& exec) {
+                     Executor& exec, bool regions_may_be_empty) {
+  const bool lax = regions_may_be_empty;
   check_material(def.material, def.name);
   Level<T> L;
   const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
@@ -163,25 +168,26 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, st
   // Node states: fixed regions, then prescribed motions (also fixed: the motion drives them).
   L.state.assign(nn, kNodeFree);
   for (std::size_t i = 0; i < def.fixed.size(); ++i)
-    for (auto n : select_nodes(mesh, def.fixed[i], fmt::format("fixed[{}]", i), def.name)) L.state[n] = kNodeFixed;
+    for (auto n : select_nodes(mesh, def.fixed[i], fmt::format("fixed[{}]", i), def.name, lax)) L.state[n] = kNodeFixed;
   motions.clear();
   for (std::size_t i = 0; i < def.prescribed.size(); ++i) {
     MotionState m;
-    m.nodes = select_nodes(mesh, def.prescribed[i].region, fmt::format("prescribed[{}]", i), def.name);
+    m.nodes.push_back(select_nodes(mesh, def.prescribed[i].region, fmt::format("prescribed[{}]", i), def.name, lax));
+    m.host_from.resize(1);
     m.keyframes = def.prescribed[i].keyframes;
     for (std::size_t k = 1; k < m.keyframes.size(); ++k)
       if (m.keyframes[k].time < m.keyframes[k - 1].time)
         throw InputError(fmt::format("body '{}': prescribed[{}].keyframes must be sorted by time", def.name, i));
-    for (auto n : m.nodes) L.state[n] = kNodeFixed;
+    for (auto n : m.nodes[0]) L.state[n] = kNodeFixed;
     const Vec3d o = m.offset_at(0.0);
-    for (auto n : m.nodes)
+    for (auto n : m.nodes[0])
       for (int k = 0; k < 3; ++k) L.x[k][n] = L.X[k][n] + T(o[k]);
     motions.push_back(std::move(m));
   }
   if (!def.loads.empty()) {
     for (auto& e : L.external) e.assign(nn, T(0));
     for (std::size_t i = 0; i < def.loads.size(); ++i) {
-      const auto nodes = select_nodes(mesh, def.loads[i].region, fmt::format("loads[{}]", i), def.name);
+      const auto nodes = select_nodes(mesh, def.loads[i].region, fmt::format("loads[{}]", i), def.name, lax);
       for (auto n : nodes)
         for (int k = 0; k < 3; ++k) L.external[k][n] += T(def.loads[i].total_force[k] / double(nodes.size()));
     }
@@ -210,12 +216,14 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, st
   L.omega_measured = highest_frequency(exec, L, kFrequencyIterations);
   L.omega_max = std::max(L.omega_geometric, L.omega_measured / kFrequencyMargin);
   L.stable_dt = stable_step_for(L.omega_max, def.material, def.model, courant);
+  L.stepped_runs = {Range{0, nt}};
+  L.stepped_count = nt;
   return L;
 }
 
 template Level<float> build_level<float>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
-                                         Executor&);
+                                         Executor&, bool);
 template Level<double> build_level<double>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
-                                           Executor&);
+                                           Executor&, bool);
 
 }  // namespace pliant::detail

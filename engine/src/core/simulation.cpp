@@ -31,53 +31,228 @@ EnergyPass<T> energy_kernel(ForceModel m) {
 }  // namespace
 
 template <class T>
-bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where, std::int64_t step_index) {
+void Simulation<T>::prepare(double tick_dt) {
+  jobs_.clear();
+  job_state_.clear();
+  job_of_body_.clear();
+  std::size_t pieces = 0;
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     SimBody<T>& body = bodies[b];
+    job_of_body_.push_back(jobs_.size());
+    const bool multilevel = body.levels.size() > 1;
     for (std::size_t l = 0; l < body.levels.size(); ++l) {
       Level<T>& L = body.levels[l];
-      const ElementContext<T> ec = element_context(L);
-      const ElementPass<T> pass = force_kernel<T>(L.model);
-      exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
-
-      const GatherContext<T> gc = gather_context(L);
-      const IntegrateContext<T> ic = integrate_context(L, gravity, dt);
-      // Gather and integrate fused: each node's force is used while in registers (the same
-      // bits as the two passes). Nodes only read corner forces, which the element pass has
-      // finished writing, so node ranges are independent.
-      const bool finite = exec.parallel_all(L.node_count, pass_grain(L.node_count, kNodeGrain),
-                                            [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
-      if (!finite) {
-        std::size_t bad = 0;
-        for (std::size_t n = 0; n < L.node_count; ++n) {
-          bool ok = true;
-          if (L.state[n] != kNodeFree) continue;
-          for (int k = 0; k < 3; ++k) ok &= within_bounds(L.x[k][n], L.v[k][n]);
-          if (!ok) {
-            bad = n;
-            break;
-          }
+      L.period = multilevel ? level_period(L.stable_dt, tick_dt) : 1;
+      jobs_.push_back({L.period, L.stepped_count});
+      LevelJobState<T> js;
+      js.body = int(b);
+      js.level = int(l);
+      js.ec = element_context(L);
+      js.pass = force_kernel<T>(L.model);
+      js.run_start.assign(1, 0);
+      for (const Range& r : L.stepped_runs) js.run_start.push_back(js.run_start.back() + r.size());
+      pieces += L.stepped_runs.size() + 1;
+      js.gc = gather_context(L);
+      js.ic = integrate_context(L, gravity, 0.0);
+      js.gh.ghosts = L.ghosts.data();
+      js.gh.offsets = L.ghost_offsets.data();
+      js.gh.source_level = L.ghost_source_level.data();
+      js.gh.source_node = L.ghost_source_node.data();
+      js.gh.weight = L.ghost_weight.data();
+      js.rc.receivers = L.receivers.data();
+      js.rc.offsets = L.receive_offsets.data();
+      js.rc.ghost_level = L.receive_ghost_level.data();
+      js.rc.ghost_node = L.receive_ghost_node.data();
+      js.rc.weight = L.receive_weight.data();
+      for (std::size_t m = 0; m < body.levels.size() && m < std::size_t(kMaxLevels); ++m) {
+        Level<T>& S = body.levels[m];
+        for (int k = 0; k < 3; ++k) {
+          js.gh.source_x[m][k] = S.x[k].data();
+          js.gh.source_v[m][k] = S.v[k].data();
+          js.rc.ghost_f[m][k] = S.f[k].data();
         }
+      }
+      for (int k = 0; k < 3; ++k) {
+        js.gh.x[k] = L.x[k].data();
+        js.gh.v[k] = L.v[k].data();
+        js.rc.impulse[k] = L.impulse[k].empty() ? nullptr : L.impulse[k].data();
+      }
+      job_state_.push_back(std::move(js));
+    }
+  }
+  due_.assign(jobs_.size(), LevelDue{});
+  pieces_.clear();
+  pieces_.reserve(pieces);  // element pieces keep their address for the segments pointing at them
+  segments_.reserve(pieces + jobs_.size());
+  predicates_.reserve(2 * jobs_.size());
+}
+
+namespace {
+
+template <class T>
+void run_piece(const void* ctx, Range r) {
+  const auto& p = *static_cast<const ElementPiece<T>*>(ctx);
+  p.job->pass(p.job->ec, Range{p.first_tet + r.begin, p.first_tet + r.end});
+}
+template <class T>
+void run_ghosts(const void* ctx, Range r) {
+  refresh_ghosts(*static_cast<const GhostContext<T>*>(ctx), r);
+}
+template <class T>
+void run_receive(const void* ctx, Range r) {
+  receive_ghost_impulses(*static_cast<const ReceiveContext<T>*>(ctx), r);
+}
+template <class T>
+bool run_gather(const void* ctx, Range r) {
+  gather_forces(static_cast<const LevelJobState<T>*>(ctx)->gc, r);
+  return true;
+}
+template <class T>
+bool run_gather_integrate(const void* ctx, Range r) {
+  const auto& js = *static_cast<const LevelJobState<T>*>(ctx);
+  return gather_integrate_symplectic_euler(js.gc, js.ic, r);
+}
+template <class T>
+bool run_integrate(const void* ctx, Range r) {
+  const auto& js = *static_cast<const LevelJobState<T>*>(ctx);
+  if (js.rc.impulse[0]) return integrate_symplectic_euler_impulse(js.ic, js.rc.impulse, r);
+  return integrate_symplectic_euler(js.ic, r);
+}
+
+}  // namespace
+
+template <class T>
+bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index) {
+  plan_tick(jobs_, schedule, tick_, due_);
+  const std::size_t jobs = jobs_.size();
+  auto level_of = [&](std::size_t j) -> Level<T>& {
+    return bodies[std::size_t(job_state_[j].body)].levels[std::size_t(job_state_[j].level)];
+  };
+  for (std::size_t j = 0; j < jobs; ++j) {
+    Level<T>& L = level_of(j);
+    if (due_[j].window_start) L.window_start = t;
+    L.window_dt += h;
+  }
+
+  // A: ghosts take the state of their sources (coarser levels, which do not move in this window).
+  segments_.clear();
+  for (std::size_t j = 0; j < jobs; ++j) {
+    const Level<T>& L = level_of(j);
+    if (due_[j].window_start && !L.ghosts.empty())
+      segments_.push_back({L.ghosts.size(), pass_grain(L.ghosts.size(), kNodeGrain), &run_ghosts<T>, &job_state_[j].gh});
+  }
+  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
+
+  // B: the element passes due now: each level's slice of its stepped tets, cut at run boundaries.
+  segments_.clear();
+  pieces_.clear();
+  last_tick_tets_ = 0;
+  for (std::size_t j = 0; j < jobs; ++j) {
+    std::size_t b = due_[j].begin;
+    const std::size_t e = due_[j].end;
+    if (b >= e) continue;
+    last_tick_tets_ += e - b;
+    const LevelJobState<T>& js = job_state_[j];
+    const auto& runs = level_of(j).stepped_runs;
+    std::size_t k = std::size_t(std::upper_bound(js.run_start.begin(), js.run_start.end(), b) - js.run_start.begin()) - 1;
+    while (b < e) {
+      const std::size_t stop = std::min(e, js.run_start[k + 1]);
+      pieces_.push_back({&js, runs[k].begin + (b - js.run_start[k])});
+      const std::size_t n = stop - b;
+      segments_.push_back({n, pass_grain(n, kTetGrain), &run_piece<T>, &pieces_.back()});
+      b = stop;
+      ++k;
+    }
+  }
+  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
+
+  // C: forces on the nodes of the levels whose window ends; levels without ghosts or receivers
+  // integrate at once (the fused pass of a single-level body), coupled ones wait for D.
+  predicates_.clear();
+  bool coupled_due = false;
+  for (std::size_t j = 0; j < jobs; ++j) {
+    if (!due_[j].window_end) continue;
+    Level<T>& L = level_of(j);
+    LevelJobState<T>& js = job_state_[j];
+    js.ic.dt = T(L.window_dt);
+    const std::size_t n = L.node_count;
+    if (L.coupled()) {
+      coupled_due = true;
+      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather<T>, &js});
+    } else {
+      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather_integrate<T>, &js});
+    }
+  }
+  bool finite = predicates_.empty() || exec.run_segments_all(predicates_.data(), predicates_.size());
+
+  if (coupled_due) {
+    // D: the forces on the ghosts of the levels whose window ends go to their sources as impulses.
+    segments_.clear();
+    for (std::size_t j = 0; j < jobs; ++j) {
+      Level<T>& L = level_of(j);
+      if (L.receivers.empty()) continue;
+      LevelJobState<T>& js = job_state_[j];
+      const SimBody<T>& body = bodies[std::size_t(js.body)];
+      const std::size_t first = job_of_body_[std::size_t(js.body)];
+      bool any = false;
+      for (std::size_t m = 0; m < body.levels.size(); ++m) {
+        const bool now = due_[first + m].window_end && !body.levels[m].ghosts.empty();
+        js.rc.ghost_dt[m] = now ? T(body.levels[m].window_dt) : T(0);
+        any |= now;
+      }
+      if (any) segments_.push_back({L.receivers.size(), pass_grain(L.receivers.size(), kNodeGrain), &run_receive<T>, &js.rc});
+    }
+    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
+    // E: the coupled levels whose window ends integrate, with the impulses they received.
+    predicates_.clear();
+    for (std::size_t j = 0; j < jobs; ++j) {
+      Level<T>& L = level_of(j);
+      if (due_[j].window_end && L.coupled())
+        predicates_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_integrate<T>, &job_state_[j]});
+    }
+    if (!predicates_.empty()) finite &= exec.run_segments_all(predicates_.data(), predicates_.size());
+  }
+
+  if (!finite) {
+    for (std::size_t j = 0; j < jobs; ++j) {
+      if (!due_[j].window_end) continue;
+      const Level<T>& L = level_of(j);
+      for (std::size_t n = 0; n < L.node_count; ++n) {
+        if (L.state[n] != kNodeFree) continue;
+        bool ok = true;
+        for (int k = 0; k < 3; ++k) ok &= within_bounds(L.x[k][n], L.v[k][n]);
+        if (ok) continue;
         where = fmt::format(
             "body '{}', level {}, step {} (t = {:.6g} s): node {} has a non-finite position or velocity, or one beyond "
             "{:g} (m, m/s)",
-            body.def.name, l, step_index, t + dt, bad, kDivergedMagnitude);
+            bodies[std::size_t(job_state_[j].body)].def.name, job_state_[j].level, step_index, t + h, n,
+            kDivergedMagnitude);
         return false;
       }
-
-      // Prescribed motion: nodes at rest + offset(t + dt), velocity = offset rate over the step.
-      for (MotionState& m : body.motions) {
-        const Vec3d o1 = m.offset_at(t + dt);
-        const Vec3d o0 = m.host_driven ? m.host_from : m.offset_at(t);
-        m.host_from = o1;
-        for (std::int32_t n : m.nodes)
-          for (int k = 0; k < 3; ++k) {
-            L.x[k][n] = L.X[k][n] + T(o1[k]);
-            L.v[k][n] = T((o1[k] - o0[k]) / dt);
-          }
-      }
     }
+    where = fmt::format("step {} (t = {:.6g} s): a node diverged", step_index, t + h);
+    return false;
   }
+
+  // Prescribed motion of the levels that integrated: nodes at rest + offset(end of window),
+  // velocity = the offset's change over the window.
+  for (std::size_t j = 0; j < jobs; ++j) {
+    if (!due_[j].window_end) continue;
+    Level<T>& L = level_of(j);
+    const std::size_t l = std::size_t(job_state_[j].level);
+    for (MotionState& m : bodies[std::size_t(job_state_[j].body)].motions) {
+      const Vec3d o1 = m.offset_at(t + h);
+      const Vec3d o0 = m.host_driven ? m.host_from[l] : m.offset_at(L.window_start);
+      m.host_from[l] = o1;
+      for (std::int32_t n : m.nodes[l])
+        for (int k = 0; k < 3; ++k) {
+          L.x[k][n] = L.X[k][n] + T(o1[k]);
+          L.v[k][n] = T((o1[k] - o0[k]) / L.window_dt);
+        }
+    }
+    L.window_dt = 0;
+  }
+  ++tick_;
   return true;
 }
 

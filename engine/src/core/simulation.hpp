@@ -7,17 +7,21 @@
 #include <vector>
 
 #include "pliant/defs.hpp"
+#include "pliant/hierarchy.hpp"
 #include "pliant/level.hpp"
+#include "pliant/level_passes.hpp"
+#include "pliant/kernels/multilevel_passes.hpp"
 #include "pliant/scheduler/executor.hpp"
+#include "pliant/scheduler/level_schedule.hpp"
 
 namespace pliant::detail {
 
 struct MotionState {
-  std::vector<std::int32_t> nodes;       // level-0 node indices of the region
+  std::vector<std::vector<std::int32_t>> nodes;  // per level: node indices of the region (active nodes)
   std::vector<KeyframeDef> keyframes;
   bool host_driven = false;               // set_motion_offset() took over
   Vec3d host_offset{};                    // m
-  Vec3d host_from{};                      // m, host offset at the start of the next step
+  std::vector<Vec3d> host_from;           // m, per level: host offset at the start of its next step
   Vec3d offset_at(double time) const;     // m
 };
 
@@ -38,9 +42,23 @@ struct ProbeState {
 // Builds a level from a validated mesh: SoA arrays, rest geometry, masses, incidence, boundary,
 // node states from the body's regions, stable step (measured with exec's threads; the result
 // does not depend on their number). Throws InputError on bad regions or material.
+// regions_may_be_empty: a region that selects no node of this mesh is not an error (the coarser
+// levels of a multiresolution body; the body checks that some level has the nodes).
 template <class T>
 Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
-                     Executor& exec);
+                     Executor& exec, bool regions_may_be_empty = false);
+
+// The nodes of `mesh` in region r (rest positions, tolerance 1e-9 of the mesh size; node lists
+// checked against the mesh). Throws InputError naming `what` if none is selected, unless may_be_empty.
+std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, const std::string& what,
+                                       const std::string& body, bool may_be_empty = false);
+
+// A body of several levels (docs/multiresolution.md) from its hierarchy: each level built as a
+// whole (its stable step measured as for a single level), then who is active where applied
+// (activation.hpp): stepped tets, node roles, ghosts and their sources, receivers, masses from the
+// stepped tets with each ghost's mass moved to its sources, regions on active nodes.
+template <class T>
+SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double courant, Executor& exec);
 
 // ---- the stable step (stable_step.cpp) ----
 // 2 c_p / h_min (rad/s): the highest frequency of a mesh of smallest altitude h_min (m) as the
@@ -62,16 +80,48 @@ double stable_step_for(double omega_max, const MaterialDef& material, ForceModel
 // stable_step_for(geometric_frequency(h_min)): the classic Courant bound, tightened by damping.
 double courant_time_step(double h_min, const MaterialDef& material, ForceModel model, double courant);
 
+// What one level needs to run its passes on a tick: kernel contexts pointing into the level and
+// its body's other levels (built by Simulation::prepare, so that a tick allocates nothing).
+template <class T>
+struct LevelJobState {
+  int body = 0, level = 0;
+  ElementContext<T> ec;
+  ElementPass<T> pass = nullptr;
+  std::vector<std::size_t> run_start;  // stepped-tet index at which each run begins (+ the total)
+  GatherContext<T> gc;
+  IntegrateContext<T> ic;
+  GhostContext<T> gh;
+  ReceiveContext<T> rc;
+};
+
+// A piece of one level's element work on a tick: a stretch of consecutive stepped tets.
+template <class T>
+struct ElementPiece {
+  const LevelJobState<T>* job = nullptr;
+  std::size_t first_tet = 0;
+};
+
 template <class T>
 class Simulation {
  public:
   std::vector<SimBody<T>> bodies;
   std::vector<ProbeState> probes;
   T gravity[3] = {0, 0, 0};
+  ScheduleKind schedule = ScheduleKind::staggered;
 
-  // One step of size dt from time t for every body and level. Returns false (and fills
-  // `where`) if a free node's state became non-finite.
-  bool step(Executor& exec, double t, double dt, std::string& where, std::int64_t step_index);
+  // Builds the jobs (one per level of every body), their periods for fine ticks of `tick_dt` (s)
+  // (levels of a multiresolution body: level_period of their stable step; single-level bodies: 1)
+  // and every kernel context. Call after bodies or the step change; the tick count restarts
+  // windows only if `reset_tick`.
+  void prepare(double tick_dt);
+
+  // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
+  // window starts), element passes (every level's due slice), gathers, impulses to the coarser
+  // levels, integration (levels whose window ends), prescribed motion; each phase is one parallel
+  // region. Returns false (and fills `where`) if a free node's state diverged.
+  bool step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index);
+  std::int64_t ticks() const { return tick_; }
+  std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
 
   void elastic_energies(Executor& exec, double& elastic) const;
   // Kinetic energy (J) at the time of the positions: 1/2 sum m |v_c|^2 with, on free nodes,
@@ -89,6 +139,17 @@ class Simulation {
   // True if some level's model can stiffen beyond its rest state (stvk, corotational).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
+
+ private:
+  std::int64_t tick_ = 0;
+  std::size_t last_tick_tets_ = 0;
+  std::vector<LevelJob> jobs_;
+  std::vector<LevelDue> due_;
+  std::vector<LevelJobState<T>> job_state_;
+  std::vector<ElementPiece<T>> pieces_;
+  std::vector<Executor::Segment> segments_;
+  std::vector<Executor::PredicateSegment> predicates_;
+  std::vector<std::size_t> job_of_body_;  // first job of each body (its levels follow)
 };
 
 }  // namespace pliant::detail

@@ -8,6 +8,7 @@
 #include <fmt/format.h>
 #include <variant>
 
+#include "pliant/hierarchy.hpp"
 #include "pliant/mesh_io.hpp"
 #include "pliant/meshing.hpp"
 #include "simulation.hpp"
@@ -61,10 +62,12 @@ struct World::Impl {
     base_substeps = substeps = 1;
     if (!ts.dt) {
       dt = stable_dt;
+      prepare();
       return;
     }
     if (*ts.dt <= stable_dt) {
       dt = *ts.dt;
+      prepare();
       return;
     }
     if (!ts.substep)
@@ -74,6 +77,15 @@ struct World::Impl {
           *ts.dt, stable_dt, ts.courant));
     base_substeps = substeps = int(std::ceil(*ts.dt / stable_dt));
     dt = *ts.dt;
+    prepare();
+  }
+
+  // Jobs, periods and kernel contexts of every level for ticks of the step dt.
+  void prepare() {
+    visit([&](auto& s) {
+      s.schedule = def.schedule == Schedule::naive ? ScheduleKind::naive : ScheduleKind::staggered;
+      s.prepare(dt / substeps);
+    });
   }
 
   // The adaptive step (TimeStepDef::adapt). Every 16 steps (every 8 once r > 1.5, every step
@@ -227,13 +239,20 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
   MeshLoadReport report;
   finalize_tet_mesh(mesh, fmt::format("body '{}'", def.name), report);
   if (mesh.tet_count() == 0) throw InputError(fmt::format("body '{}': the mesh has no tetrahedra", def.name));
+  std::size_t tets = 0;
   const BodyId id = impl_->visit([&](auto& s) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
-    b.def = def;
-    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
+    if (def.multiresolution.levels > 1) {
+      const Hierarchy h = link_levels(build_level_meshes(def, std::move(mesh)));
+      b = detail::build_multilevel_body<T>(h, def, impl_->def.time_step.courant, impl_->exec);
+    } else {
+      b.def = def;
+      b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
+    }
+    for (const auto& L : b.levels) tets += L.tet_count;
     s.bodies.push_back(std::move(b));
-    s.scratch.reserve(std::max(s.scratch.capacity(), mesh.tet_count()));  // reports and the monitor
+    s.scratch.reserve(std::max(s.scratch.capacity(), tets));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
   });
   try {
@@ -408,8 +427,13 @@ void World::set_motion_offset(BodyId b, int motion, const Vec3d& offset) {
     for (int k = 0; k < 3; ++k)
       if (!std::isfinite(offset[k])) throw InputError("set_motion_offset: offset must be finite");
     auto& m = body.motions[std::size_t(motion)];
-    // Keep the velocity consistent: the current offset becomes the start of the next step.
-    if (!m.host_driven) m.host_from = m.offset_at(impl_->time);
+    // Keep the velocity consistent: the offset at the start of each level's current window (now,
+    // for a level between windows) becomes the start of its next step.
+    if (!m.host_driven)
+      for (std::size_t l = 0; l < m.host_from.size(); ++l) {
+        const auto& L = body.levels[l];
+        m.host_from[l] = m.offset_at(L.window_dt > 0 ? L.window_start : impl_->time);
+      }
     m.host_driven = true;
     m.host_offset = offset;
   });

@@ -15,4 +15,6 @@ const char* to_string(ForceModel m) {
   return "?";
 }
 
+const char* to_string(Schedule s) { return s == Schedule::naive ? "naive" : "staggered"; }
+
 }  // namespace pliant

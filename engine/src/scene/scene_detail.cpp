@@ -31,12 +31,18 @@ KeyList object_keys_at(std::string_view pattern) {
       {"bodies[].prescribed[].keyframes[]", kKeyframeKeys},
       {"bodies[].loads[]", kLoadKeys},
       {"bodies[].loads[].region", kRegionKeys},
+      {"bodies[].multiresolution", kMultiresKeys},
+      {"bodies[].multiresolution.levels[]", kMeshKeys},
+      {"bodies[].multiresolution.levels[].box", kMeshBoxKeys},
+      {"bodies[].multiresolution.active[]", kActiveRegionKeys},
+      {"bodies[].multiresolution.active[].region", kRegionKeys},
   };
   for (const auto& [p, keys] : table)
     if (p == pattern) return keys;
   // The box and sphere of any region.
   for (std::string_view region : {"bodies[].fixed[]", "bodies[].prescribed[].region",
-                                  "bodies[].loads[].region"}) {
+                                  "bodies[].loads[].region",
+                                  "bodies[].multiresolution.active[].region"}) {
     if (!pattern.starts_with(region)) continue;
     std::string_view rest = pattern.substr(region.size());
     if (rest == ".box") return kRegionBoxKeys;

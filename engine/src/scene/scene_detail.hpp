@@ -16,10 +16,12 @@ using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
                                                   "time_step", "bodies", "probes",    "output",
-                                                  "camera"};
+                                                  "camera",    "schedule"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
-                                                 "fixed", "prescribed", "loads"};
+                                                 "fixed", "prescribed", "loads",    "multiresolution"};
+inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "active"};
+inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
                                                  "cell_size", "scale", "translate"};
 inline constexpr std::string_view kMeshBoxKeys[] = {"min", "max", "cells", "tets_per_cell"};

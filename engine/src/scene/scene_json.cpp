@@ -204,6 +204,7 @@ class Reader {
   TimeStepDef time_step(const Json& j, const std::string& path) const;
   BodyDef body(const Json& j, const std::string& path, std::size_t index) const;
   MeshSourceDef mesh(const Json& j, const std::string& path) const;
+  MultiresolutionDef multiresolution(const Json& j, const std::string& path) const;
   MaterialDef material(const Json& j, const std::string& path) const;
   RegionDef region(const Json& j, const std::string& path) const;
   PrescribedMotionDef prescribed(const Json& j, const std::string& path) const;
@@ -228,6 +229,9 @@ SceneDef Reader::scene(const Json& doc) const {
     s.world.threads = static_cast<int>(integer(v, p, 0, 1 << 16));
   });
   optional(doc, "", "time_step", [&](const auto& v, const auto& p) { s.world.time_step = time_step(v, p); });
+  optional(doc, "", "schedule", [&](const auto& v, const auto& p) {
+    s.world.schedule = choice(v, p, "schedule", {"staggered", "naive"}) == 0 ? Schedule::staggered : Schedule::naive;
+  });
 
   const Json& bodies = array(required(doc, "", "bodies"), "bodies");
   if (bodies.empty()) fail("bodies", "must list at least one body");
@@ -330,7 +334,57 @@ BodyDef Reader::body(const Json& j, const std::string& path, std::size_t index) 
   optional(j, path, "loads", [&](const auto& v, const auto& p) {
     for (std::size_t i = 0; i < array(v, p).size(); ++i) b.loads.push_back(load(v[i], element(p, i)));
   });
+  optional(j, path, "multiresolution", [&](const auto& v, const auto& p) { b.multiresolution = multiresolution(v, p); });
   return b;
+}
+
+// "multiresolution": {"levels": N | [MESH, ...], "ratio": r,
+//                     "active": "finest" | "coarsest" | K | [{"level": K, "region": REGION}, ...]}
+MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& path) const {
+  constexpr long long kMaxLevels = 8;  // ratio 2: 8 levels span 128x in size, 2e6x in tets
+  object(j, path, kMultiresKeys);
+  MultiresolutionDef m;
+  optional(j, path, "levels", [&](const auto& v, const auto& p) {
+    if (v.is_array()) {  // the coarser levels, coarse to fine; the body's mesh is the finest
+      if (v.empty()) fail(p, "must list at least one coarser mesh (the body's \"mesh\" is the finest level)");
+      if (static_cast<long long>(v.size()) + 1 > kMaxLevels)
+        fail(p, fmt::format("{} coarser meshes: at most {} levels in all", v.size(), kMaxLevels));
+      for (std::size_t i = 0; i < v.size(); ++i) m.coarser.push_back(mesh(v[i], element(p, i)));
+      m.levels = static_cast<int>(v.size()) + 1;
+    } else {
+      m.levels = static_cast<int>(integer(v, p, 1, kMaxLevels));
+    }
+  });
+  optional(j, path, "ratio", [&](const auto& v, const auto& p) {
+    m.ratio = number(v, p);
+    if (!(m.ratio > 1 && m.ratio <= 16)) fail(p, fmt::format("must be in (1, 16], got {}", m.ratio));
+    if (!m.coarser.empty()) fail(p, "not used when \"levels\" lists the coarser meshes");
+  });
+  optional(j, path, "active", [&](const auto& v, const auto& p) {
+    const std::string levels = fmt::format("0 (coarsest) .. {} (finest)", m.levels - 1);
+    if (v.is_string()) {
+      m.active.kind = choice(v, p, "active level", {"finest", "coarsest"}) == 0 ? ActiveDef::Kind::finest
+                                                                                 : ActiveDef::Kind::coarsest;
+    } else if (v.is_number()) {
+      m.active.kind = ActiveDef::Kind::level;
+      m.active.level = static_cast<int>(integer(v, p, 0, m.levels - 1));
+    } else if (v.is_array()) {
+      m.active.kind = ActiveDef::Kind::regions;
+      if (v.empty()) fail(p, "must list at least one {\"level\", \"region\"}");
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const std::string q = element(p, i);
+        object(v[i], q, kActiveRegionKeys);
+        ActiveRegionDef a;
+        a.level = static_cast<int>(integer(required(v[i], q, "level"), field(q, "level"), 0, m.levels - 1));
+        a.region = region(required(v[i], q, "region"), field(q, "region"));
+        m.active.regions.push_back(std::move(a));
+      }
+    } else {
+      fail(p, "expected \"finest\", \"coarsest\", a level number in " + levels +
+                  " or a list of {\"level\", \"region\"}, got " + describe(v));
+    }
+  });
+  return m;
 }
 
 MeshSourceDef Reader::mesh(const Json& j, const std::string& path) const {

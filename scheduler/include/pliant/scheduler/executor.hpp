@@ -3,7 +3,9 @@
 // No allocation and no virtual call per loop: the body is passed as a function pointer + context.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "pliant/kernels/range.hpp"
 
@@ -32,6 +34,23 @@ class Executor {
                    &body);
   }
 
+  // Several loops in one parallel region: segment i calls fn(ctx, Range) over [0, n) in chunks of
+  // about `grain` items. The segments must write disjoint outputs (they may run at once). One
+  // fork-join for all of them, instead of one per loop: how the passes due on one tick run.
+  struct Segment {
+    std::size_t n = 0, grain = 1;
+    void (*fn)(const void*, Range) = nullptr;
+    const void* ctx = nullptr;
+  };
+  void run_segments(const Segment* segments, std::size_t count);
+  // The same with a bool per chunk; the result is the AND of all of them.
+  struct PredicateSegment {
+    std::size_t n = 0, grain = 1;
+    bool (*fn)(const void*, Range) = nullptr;
+    const void* ctx = nullptr;
+  };
+  bool run_segments_all(const PredicateSegment* segments, std::size_t count);
+
   static int default_threads();
 
  private:
@@ -39,6 +58,14 @@ class Executor {
   using PredFn = bool (*)(const void*, Range);
   void run(std::size_t n, std::size_t grain, Fn fn, const void* ctx);
   bool run_all(std::size_t n, std::size_t grain, PredFn fn, const void* ctx);
+
+  struct Chunk {
+    std::uint32_t segment;
+    Range range;
+  };
+  std::vector<Chunk> chunks_;  // scratch of run_segments: grows to the largest tick, then stays
+  void split(std::size_t count, std::size_t (*n)(const void*, std::size_t), std::size_t (*grain)(const void*, std::size_t),
+             const void* segments);
 
   struct Arena;
   int threads_ = 1;

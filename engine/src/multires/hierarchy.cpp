@@ -1,0 +1,122 @@
+// The levels of a multiresolution body and their links at rest (pliant/hierarchy.hpp).
+#include "pliant/hierarchy.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "pliant/error.hpp"
+#include "pliant/meshing.hpp"
+#include "pliant/world.hpp"
+#include "tet_locator.hpp"
+
+namespace pliant {
+namespace {
+
+// Mesh_3 gives about 4.3 V / s^3 tets for cell size s (cgal_mesher.cpp): the cell size a mesh of
+// n tets and volume V corresponds to, whatever made it.
+double equivalent_cell_size(const TetMesh& m) {
+  double volume = 0;
+  for (const Tet& t : m.tets) volume += signed_tet_volume(m.point(t[0]), m.point(t[1]), m.point(t[2]), m.point(t[3]));
+  return std::cbrt(4.3 * volume / double(std::max<std::size_t>(m.tet_count(), 1)));
+}
+
+TetMesh coarse_box(const MeshSourceDef& fine, double ratio, int k) {
+  MeshSourceDef src = fine;
+  const double f = std::pow(ratio, k);
+  for (int c = 0; c < 3; ++c) src.cells[std::size_t(c)] = std::max(1, int(std::ceil(double(fine.cells[std::size_t(c)]) / f - 1e-9)));
+  return build_mesh(src);
+}
+
+}  // namespace
+
+std::vector<TetMesh> build_level_meshes(const BodyDef& def, TetMesh finest) {
+  const MultiresolutionDef& mr = def.multiresolution;
+  const int n = mr.levels;
+  if (n < 1) throw InputError(fmt::format("body '{}': multiresolution.levels must be >= 1, got {}", def.name, n));
+  if (!mr.coarser.empty() && int(mr.coarser.size()) + 1 != n)
+    throw InputError(fmt::format("body '{}': multiresolution lists {} coarser meshes for {} levels", def.name,
+                                 mr.coarser.size(), n));
+  if (!(mr.ratio > 1) || !std::isfinite(mr.ratio))
+    throw InputError(fmt::format("body '{}': multiresolution.ratio must be > 1, got {}", def.name, mr.ratio));
+  std::vector<TetMesh> meshes(static_cast<std::size_t>(n));
+  meshes[std::size_t(n - 1)] = std::move(finest);
+  if (n == 1) return meshes;
+  if (!mr.coarser.empty()) {
+    for (int l = 0; l < n - 1; ++l) meshes[std::size_t(l)] = build_mesh(mr.coarser[std::size_t(l)]);
+    return meshes;
+  }
+  if (def.mesh.kind == MeshSourceDef::Kind::box) {
+    for (int l = 0; l < n - 1; ++l) meshes[std::size_t(l)] = coarse_box(def.mesh, mr.ratio, n - 1 - l);
+    return meshes;
+  }
+  // Surface pipeline (thesis Fig. 5.1): simplify the boundary level by level, mesh each surface.
+  const TetMesh& fine = meshes[std::size_t(n - 1)];
+  const double h = equivalent_cell_size(fine);
+  TriangleSurface surface = boundary_surface(fine);
+  for (int l = n - 2; l >= 0; --l) {
+    const int k = n - 1 - l;
+    const std::string what = fmt::format("body '{}', level {} of {}", def.name, l, n);
+    const double faces = double(surface.triangles.size()) / (mr.ratio * mr.ratio);
+    surface = simplify_surface(surface, std::size_t(std::max(4.0, std::round(faces))), what);
+    TetMesh m = mesh_closed_surface(surface, h * std::pow(mr.ratio, k), what);
+    renumber_for_locality(m);
+    meshes[std::size_t(l)] = std::move(m);
+  }
+  return meshes;
+}
+
+Hierarchy link_levels(std::vector<TetMesh> meshes) {
+  Hierarchy h;
+  h.meshes = std::move(meshes);
+  const std::size_t n = h.meshes.size();
+  h.links.resize(n);
+  for (std::size_t l = 0; l < n; ++l)
+    if (h.meshes[l].tet_count() == 0) throw InputError(fmt::format("level {} of the hierarchy has no tets", l));
+  for (std::size_t l = 0; l + 1 < n; ++l) {
+    const TetMesh& coarse = h.meshes[l];
+    const TetMesh& fine = h.meshes[l + 1];
+    LevelLinks& lc = h.links[l];
+    LevelLinks& lf = h.links[l + 1];
+    const detail::TetLocator in_coarse(coarse), in_fine(fine);
+    const detail::NodeLocator coarse_nodes(coarse);
+    lf.to_coarser.resize(fine.node_count());
+    lf.parent.resize(fine.node_count());
+    for (std::size_t i = 0; i < fine.node_count(); ++i) {
+      lf.to_coarser[i] = in_coarse.locate(fine.point(i));
+      lf.parent[i] = coarse_nodes.nearest(fine.point(i));
+    }
+    lc.to_finer.resize(coarse.node_count());
+    for (std::size_t i = 0; i < coarse.node_count(); ++i) lc.to_finer[i] = in_fine.locate(coarse.point(i));
+    lf.tet_parent.resize(fine.tet_count());
+    for (std::size_t t = 0; t < fine.tet_count(); ++t) {
+      Vec3d c{0, 0, 0};
+      for (int a = 0; a < 4; ++a)
+        for (int k = 0; k < 3; ++k) c[std::size_t(k)] += 0.25 * fine.points[3 * std::size_t(fine.tets[t][std::size_t(a)]) + std::size_t(k)];
+      lf.tet_parent[t] = in_coarse.locate(c).tet;
+    }
+    // Children (CSR, in fine node order) and rings (tets of the fine level around the children).
+    lc.child_offsets.assign(coarse.node_count() + 1, 0);
+    for (auto p : lf.parent) ++lc.child_offsets[std::size_t(p) + 1];
+    for (std::size_t i = 0; i < coarse.node_count(); ++i) lc.child_offsets[i + 1] += lc.child_offsets[i];
+    lc.children.resize(fine.node_count());
+    {
+      std::vector<std::int32_t> cursor(lc.child_offsets.begin(), lc.child_offsets.end() - 1);
+      for (std::size_t i = 0; i < fine.node_count(); ++i) lc.children[std::size_t(cursor[std::size_t(lf.parent[i])]++)] = std::int32_t(i);
+    }
+    std::vector<std::vector<std::int32_t>> ring(coarse.node_count());
+    for (std::size_t t = 0; t < fine.tet_count(); ++t)
+      for (int a = 0; a < 4; ++a) {
+        auto& r = ring[std::size_t(lf.parent[std::size_t(fine.tets[t][std::size_t(a)])])];
+        if (r.empty() || r.back() != std::int32_t(t)) r.push_back(std::int32_t(t));
+      }
+    lc.ring_offsets.assign(coarse.node_count() + 1, 0);
+    for (std::size_t i = 0; i < coarse.node_count(); ++i) {
+      lc.ring_offsets[i + 1] = lc.ring_offsets[i] + std::int32_t(ring[i].size());
+      lc.ring.insert(lc.ring.end(), ring[i].begin(), ring[i].end());
+    }
+  }
+  return h;
+}
+
+}  // namespace pliant

@@ -1,0 +1,221 @@
+// TetLocator and NodeLocator (tet_locator.hpp): uniform bucket grids over a mesh at rest.
+#include "tet_locator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "pliant/kernels/element_forces.hpp"
+
+namespace pliant::detail {
+namespace {
+
+constexpr double kInsideTolerance = 1e-10;  // barycentric weight: on a face counts as inside
+constexpr std::size_t kMaxBuckets = std::size_t(1) << 22;
+
+// A grid of about `items` buckets over [lo, hi] (cubic buckets, at least one per axis).
+void size_grid(const Vec3d& lo, const Vec3d& hi, std::size_t items, Vec3d& size, std::array<int, 3>& dims) {
+  const double ext[3] = {std::max(hi[0] - lo[0], 1e-300), std::max(hi[1] - lo[1], 1e-300), std::max(hi[2] - lo[2], 1e-300)};
+  const double target = double(std::clamp<std::size_t>(items, 1, kMaxBuckets));
+  const double h = std::cbrt(ext[0] * ext[1] * ext[2] / target);
+  for (int k = 0; k < 3; ++k) {
+    dims[k] = std::clamp(int(std::ceil(ext[k] / std::max(h, 1e-300))), 1, 1 << 10);
+    size[k] = ext[k] / dims[k];
+  }
+}
+
+void bounds(const TetMesh& m, Vec3d& lo, Vec3d& hi) {
+  lo = {1e300, 1e300, 1e300};
+  hi = {-1e300, -1e300, -1e300};
+  for (std::size_t i = 0; i < m.node_count(); ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], m.points[3 * i + k]);
+      hi[k] = std::max(hi[k], m.points[3 * i + k]);
+    }
+}
+
+std::array<int, 3> cell(const Vec3d& p, const Vec3d& lo, const Vec3d& size, const std::array<int, 3>& dims) {
+  std::array<int, 3> c{};
+  for (int k = 0; k < 3; ++k) {
+    const double f = (p[k] - lo[k]) / size[k];
+    c[k] = std::isfinite(f) ? int(std::clamp(std::floor(f), 0.0, double(dims[k] - 1))) : 0;
+  }
+  return c;
+}
+
+// Calls visit(bucket index) for the buckets at Chebyshev distance exactly `s` from c.
+template <class F>
+void shell(const std::array<int, 3>& c, int s, const std::array<int, 3>& dims, F&& visit) {
+  for (int z = c[2] - s; z <= c[2] + s; ++z) {
+    if (z < 0 || z >= dims[2]) continue;
+    for (int y = c[1] - s; y <= c[1] + s; ++y) {
+      if (y < 0 || y >= dims[1]) continue;
+      const bool face = z == c[2] - s || z == c[2] + s || y == c[1] - s || y == c[1] + s;
+      for (int x = c[0] - s; x <= c[0] + s; x += (face || s == 0) ? 1 : 2 * s) {
+        if (x >= 0 && x < dims[0]) visit((std::size_t(z) * std::size_t(dims[1]) + std::size_t(y)) * std::size_t(dims[0]) + std::size_t(x));
+        if (s == 0) break;
+      }
+    }
+  }
+}
+
+int max_shell(const std::array<int, 3>& dims) { return std::max({dims[0], dims[1], dims[2]}); }
+
+}  // namespace
+
+TetLocator::TetLocator(const TetMesh& mesh) : mesh_(mesh) {
+  Vec3d hi;
+  bounds(mesh, lo_, hi);
+  size_grid(lo_, hi, mesh.tet_count(), size_, dims_);
+  const std::size_t nb = std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
+  inverse_.resize(mesh.tet_count());
+  std::vector<std::array<Cell, 2>> range(mesh.tet_count());
+  offsets_.assign(nb + 1, 0);
+  for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
+    double p[4][3];
+    Vec3d a{1e300, 1e300, 1e300}, b{-1e300, -1e300, -1e300};
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 3; ++k) {
+        p[c][k] = mesh.points[3 * std::size_t(mesh.tets[t][std::size_t(c)]) + std::size_t(k)];
+        a[k] = std::min(a[k], p[c][k]);
+        b[k] = std::max(b[k], p[c][k]);
+      }
+    double volume;
+    auto& inv = inverse_[t];
+    tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, inv.data());
+    for (int k = 0; k < 3; ++k) inv[9 + std::size_t(k)] = p[0][k];
+    range[t] = {cell_of(a), cell_of(b)};
+    for (int z = range[t][0][2]; z <= range[t][1][2]; ++z)
+      for (int y = range[t][0][1]; y <= range[t][1][1]; ++y)
+        for (int x = range[t][0][0]; x <= range[t][1][0]; ++x) ++offsets_[bucket({x, y, z}) + 1];
+  }
+  for (std::size_t i = 0; i < nb; ++i) offsets_[i + 1] += offsets_[i];
+  items_.resize(std::size_t(offsets_[nb]));
+  std::vector<std::int32_t> cursor(offsets_.begin(), offsets_.end() - 1);
+  for (std::size_t t = 0; t < mesh.tet_count(); ++t)
+    for (int z = range[t][0][2]; z <= range[t][1][2]; ++z)
+      for (int y = range[t][0][1]; y <= range[t][1][1]; ++y)
+        for (int x = range[t][0][0]; x <= range[t][1][0]; ++x)
+          items_[std::size_t(cursor[bucket({x, y, z})]++)] = std::int32_t(t);
+}
+
+TetLocator::Cell TetLocator::cell_of(const Vec3d& p) const { return cell(p, lo_, size_, dims_); }
+
+std::array<double, 4> TetLocator::weights(std::int32_t t, const Vec3d& p) const {
+  const auto& g = inverse_[std::size_t(t)];
+  const double d[3] = {p[0] - g[9], p[1] - g[10], p[2] - g[11]};
+  std::array<double, 4> w{};
+  w[0] = 1;
+  for (int a = 0; a < 3; ++a) {
+    w[std::size_t(a) + 1] = g[3 * std::size_t(a)] * d[0] + g[3 * std::size_t(a) + 1] * d[1] + g[3 * std::size_t(a) + 2] * d[2];
+    w[0] -= w[std::size_t(a) + 1];
+  }
+  return w;
+}
+
+TetLink TetLocator::locate(const Vec3d& p) const {
+  TetLink best;
+  const Cell c = cell_of(p);
+  // Inside: a tet whose bounding box holds p is listed in p's bucket.
+  double best_min = -std::numeric_limits<double>::infinity();
+  for (std::int32_t i = offsets_[bucket(c)]; i < offsets_[bucket(c) + 1]; ++i) {
+    const std::int32_t t = items_[std::size_t(i)];
+    const auto w = weights(t, p);
+    const double m = std::min({w[0], w[1], w[2], w[3]});
+    if (m > best_min || (m == best_min && t < best.tet)) {
+      best_min = m;
+      best.tet = t;
+      best.weights = w;
+    }
+  }
+  if (best.tet >= 0 && best_min >= -kInsideTolerance) return best;
+
+  // Outside every tet: the nearest by the distance to the point of clamped weights, over growing
+  // shells of buckets until no closer bucket can remain.
+  best = TetLink{};
+  double best_d = std::numeric_limits<double>::infinity();
+  const double step = std::min({size_[0], size_[1], size_[2]});
+  for (int s = 0; s <= max_shell(dims_); ++s) {
+    if (best.tet >= 0 && double(s - 1) * step > best_d) break;
+    shell(c, s, dims_, [&](std::size_t b) {
+      for (std::int32_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
+        const std::int32_t t = items_[std::size_t(i)];
+        auto w = weights(t, p);
+        double sum = 0;
+        for (double& x : w) sum += (x = std::max(x, 0.0));
+        for (double& x : w) x /= sum;
+        Vec3d q{0, 0, 0};
+        for (int a = 0; a < 4; ++a)
+          for (int k = 0; k < 3; ++k) q[k] += w[std::size_t(a)] * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(a)]) + std::size_t(k)];
+        const double d = std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+        if (d < best_d || (d == best_d && t < best.tet)) {
+          best_d = d;
+          best.tet = t;
+          best.weights = w;
+        }
+      }
+    });
+  }
+  best.outside = best_d;
+  return best;
+}
+
+TetLink TetLocator::containing(const Vec3d& p, const std::vector<std::uint8_t>& mask) const {
+  TetLink best;
+  const Cell c = cell_of(p);
+  double best_min = -kInsideTolerance;
+  for (std::int32_t i = offsets_[bucket(c)]; i < offsets_[bucket(c) + 1]; ++i) {
+    const std::int32_t t = items_[std::size_t(i)];
+    if (!mask[std::size_t(t)]) continue;
+    const auto w = weights(t, p);
+    const double m = std::min({w[0], w[1], w[2], w[3]});
+    if (m > best_min || (m == best_min && best.tet >= 0 && t < best.tet) || (m >= best_min && best.tet < 0)) {
+      best_min = m;
+      best.tet = t;
+      best.weights = w;
+    }
+  }
+  return best;
+}
+
+NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
+  Vec3d hi;
+  bounds(mesh, lo_, hi);
+  size_grid(lo_, hi, mesh.node_count(), size_, dims_);
+  const std::size_t nb = std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
+  offsets_.assign(nb + 1, 0);
+  std::vector<std::size_t> b(mesh.node_count());
+  for (std::size_t i = 0; i < mesh.node_count(); ++i) {
+    const auto c = cell(mesh.point(i), lo_, size_, dims_);
+    b[i] = (std::size_t(c[2]) * std::size_t(dims_[1]) + std::size_t(c[1])) * std::size_t(dims_[0]) + std::size_t(c[0]);
+    ++offsets_[b[i] + 1];
+  }
+  for (std::size_t i = 0; i < nb; ++i) offsets_[i + 1] += offsets_[i];
+  items_.resize(mesh.node_count());
+  std::vector<std::int32_t> cursor(offsets_.begin(), offsets_.end() - 1);
+  for (std::size_t i = 0; i < mesh.node_count(); ++i) items_[std::size_t(cursor[b[i]]++)] = std::int32_t(i);
+}
+
+std::int32_t NodeLocator::nearest(const Vec3d& p) const {
+  const auto c = cell(p, lo_, size_, dims_);
+  std::int32_t best = -1;
+  double best_d2 = std::numeric_limits<double>::infinity();
+  const double step = std::min({size_[0], size_[1], size_[2]});
+  for (int s = 0; s <= max_shell(dims_); ++s) {
+    if (best >= 0 && double(s - 1) * step > std::sqrt(best_d2)) break;
+    shell(c, s, dims_, [&](std::size_t b) {
+      for (std::int32_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
+        const std::int32_t n = items_[std::size_t(i)];
+        const Vec3d q = mesh_.point(std::size_t(n));
+        const double d2 = (p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]);
+        if (d2 < best_d2 || (d2 == best_d2 && n < best)) {
+          best_d2 = d2;
+          best = n;
+        }
+      }
+    });
+  }
+  return best;
+}
+
+}  // namespace pliant::detail

@@ -1,0 +1,50 @@
+// Point location in a tet mesh at rest, for the links between the levels of a hierarchy: which
+// tet contains a point (or is nearest to it) and with which barycentric weights, and which node
+// is nearest to a point. A uniform grid of buckets over the mesh's bounding box; each tet is
+// listed in the buckets its bounding box touches. Built once per level (setup, not the step).
+// Deterministic: ties go to the lower index.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "pliant/hierarchy.hpp"
+#include "pliant/tet_mesh.hpp"
+
+namespace pliant::detail {
+
+class TetLocator {
+ public:
+  explicit TetLocator(const TetMesh& mesh);
+  // The tet containing p (weights >= -1e-10 relative), else the nearest one (weights clamped).
+  TetLink locate(const Vec3d& p) const;
+  // Among the tets t with mask[t] != 0, one that contains p (the largest smallest weight, lowest
+  // index on ties); tet = -1 if none does.
+  TetLink containing(const Vec3d& p, const std::vector<std::uint8_t>& mask) const;
+  // Barycentric weights of p in tet t (sum 1, any sign).
+  std::array<double, 4> weights(std::int32_t t, const Vec3d& p) const;
+
+ private:
+  using Cell = std::array<int, 3>;
+  Cell cell_of(const Vec3d& p) const;
+  std::size_t bucket(const Cell& c) const { return (std::size_t(c[2]) * dims_[1] + std::size_t(c[1])) * dims_[0] + std::size_t(c[0]); }
+  const TetMesh& mesh_;
+  Vec3d lo_{}, size_{};
+  std::array<int, 3> dims_{1, 1, 1};
+  std::vector<std::int32_t> offsets_, items_;    // bucket -> tets (CSR)
+  std::vector<std::array<double, 12>> inverse_;  // per tet: rows of Dm^-1 (9) and corner 0 (3)
+};
+
+class NodeLocator {
+ public:
+  explicit NodeLocator(const TetMesh& mesh);
+  std::int32_t nearest(const Vec3d& p) const;  // nearest node (lowest index on ties)
+
+ private:
+  const TetMesh& mesh_;
+  Vec3d lo_{}, size_{};
+  std::array<int, 3> dims_{1, 1, 1};
+  std::vector<std::int32_t> offsets_, items_;
+};
+
+}  // namespace pliant::detail

@@ -1,0 +1,139 @@
+// The hierarchy of a multiresolution body at rest: level meshes, links between levels, and who
+// is active where (engine/src/multires/). Box hierarchies with an even ratio and Kuhn cells nest
+// exactly, so there the stepped tets must tile the body exactly and every ghost must sit exactly
+// where its weights put it.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+
+#include "../../engine/src/multires/activation.hpp"
+#include "pliant/hierarchy.hpp"
+#include "pliant/world.hpp"
+
+namespace pliant {
+namespace {
+
+BodyDef box_body(std::array<int, 3> cells, int levels, int tets_per_cell = 6) {
+  BodyDef b;
+  b.mesh.kind = MeshSourceDef::Kind::box;
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = {0.8, 0.2, 0.2};
+  b.mesh.cells = cells;
+  b.mesh.tets_per_cell = tets_per_cell;
+  b.multiresolution.levels = levels;
+  return b;
+}
+
+Hierarchy box_hierarchy(std::array<int, 3> cells, int levels, int tets_per_cell = 6) {
+  const BodyDef b = box_body(cells, levels, tets_per_cell);
+  return link_levels(build_level_meshes(b, build_mesh(b.mesh)));
+}
+
+double tet_volume(const TetMesh& m, std::size_t t) {
+  const Tet& q = m.tets[t];
+  return signed_tet_volume(m.point(q[0]), m.point(q[1]), m.point(q[2]), m.point(q[3]));
+}
+
+TEST(Hierarchy, BoxLevelsHaveCellsDividedByTheRatio) {
+  const Hierarchy h = box_hierarchy({8, 2, 3}, 3);
+  ASSERT_EQ(h.levels(), 3u);
+  EXPECT_EQ(h.meshes[2].tet_count(), 8u * 2 * 3 * 6);
+  EXPECT_EQ(h.meshes[1].tet_count(), 4u * 1 * 2 * 6);  // ceil(3 / 2) = 2
+  EXPECT_EQ(h.meshes[0].tet_count(), 2u * 1 * 1 * 6);
+}
+
+TEST(Hierarchy, LinksLocateEveryNodeAndChildrenPartitionTheFinerNodes) {
+  const Hierarchy h = box_hierarchy({8, 2, 2}, 3);
+  for (std::size_t l = 0; l + 1 < h.levels(); ++l) {
+    const LevelLinks& c = h.links[l];
+    const LevelLinks& f = h.links[l + 1];
+    const TetMesh& fine = h.meshes[l + 1];
+    // Every finer node inside the coarser mesh (nested boxes), weights reproduce its position.
+    for (std::size_t i = 0; i < fine.node_count(); ++i) {
+      const TetLink& k = f.to_coarser[i];
+      ASSERT_GE(k.tet, 0);
+      EXPECT_EQ(k.outside, 0.0);
+      Vec3d p{0, 0, 0};
+      for (int a = 0; a < 4; ++a)
+        for (int d = 0; d < 3; ++d) p[d] += k.weights[a] * h.meshes[l].point(h.meshes[l].tets[k.tet][a])[d];
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(p[d], fine.point(i)[d], 1e-15);
+    }
+    // Children: each finer node exactly once, under its parent.
+    EXPECT_EQ(c.children.size(), fine.node_count());
+    std::vector<int> seen(fine.node_count(), 0);
+    for (std::size_t p = 0; p + 1 < c.child_offsets.size(); ++p)
+      for (auto e = c.child_offsets[p]; e < c.child_offsets[p + 1]; ++e) {
+        ++seen[std::size_t(c.children[std::size_t(e)])];
+        EXPECT_EQ(f.parent[std::size_t(c.children[std::size_t(e)])], std::int32_t(p));
+      }
+    for (int s : seen) EXPECT_EQ(s, 1);
+  }
+}
+
+TEST(Activation, UniformChoicesStepOneLevelWithoutGhosts) {
+  const Hierarchy h = box_hierarchy({8, 2, 2}, 3);
+  for (int which = 0; which < 3; ++which) {
+    ActiveDef a;
+    a.kind = ActiveDef::Kind::level;
+    a.level = which;
+    const detail::Activation act = detail::activate(h, a);
+    for (int l = 0; l < 3; ++l) {
+      const auto& la = act.levels[std::size_t(l)];
+      const std::size_t stepped = std::accumulate(la.stepped.begin(), la.stepped.end(), std::size_t(0));
+      EXPECT_EQ(stepped, l == which ? h.meshes[std::size_t(l)].tet_count() : 0u) << which << " " << l;
+      EXPECT_TRUE(la.ghosts.empty());
+    }
+  }
+}
+
+// A fine region over half of a nested box: the stepped tets of the two levels tile the box (their
+// volumes sum to its volume to rounding), every ghost is at the position its weights give, and its
+// sources are active nodes of a coarser level.
+TEST(Activation, StaticSplitTilesTheBoxAndGhostsAreExact) {
+  const Hierarchy h = box_hierarchy({16, 4, 4}, 3);
+  ActiveDef a;
+  a.kind = ActiveDef::Kind::regions;
+  ActiveRegionDef fine;
+  fine.level = 2;
+  fine.region.kind = RegionDef::Kind::box;
+  fine.region.min = {0.65, -1, -1};
+  fine.region.max = {1, 1, 1};
+  ActiveRegionDef middle = fine;
+  middle.level = 1;
+  middle.region.min = {0.45, -1, -1};
+  a.regions = {fine, middle};
+  const detail::Activation act = detail::activate(h, a);
+  double volume = 0;
+  std::size_t ghosts = 0;
+  for (int l = 0; l < 3; ++l) {
+    const auto& la = act.levels[std::size_t(l)];
+    const TetMesh& m = h.meshes[std::size_t(l)];
+    std::size_t stepped = 0;
+    for (std::size_t t = 0; t < m.tet_count(); ++t)
+      if (la.stepped[t]) {
+        volume += tet_volume(m, t);
+        ++stepped;
+      }
+    EXPECT_GT(stepped, 0u) << "level " << l;
+    ghosts += la.ghosts.size();
+    for (std::size_t g = 0; g < la.ghosts.size(); ++g) {
+      Vec3d p{0, 0, 0};
+      double wsum = 0;
+      for (auto e = la.source_offsets[g]; e < la.source_offsets[g + 1]; ++e) {
+        const auto& s = la.sources[std::size_t(e)];
+        ASSERT_LT(s.level, l);
+        EXPECT_EQ(act.levels[std::size_t(s.level)].role[std::size_t(s.node)], detail::NodeRole::active);
+        wsum += s.weight;
+        for (int d = 0; d < 3; ++d) p[d] += s.weight * h.meshes[std::size_t(s.level)].point(std::size_t(s.node))[d];
+      }
+      EXPECT_NEAR(wsum, 1.0, 1e-14);
+      for (int d = 0; d < 3; ++d) EXPECT_NEAR(p[d], m.point(std::size_t(la.ghosts[g]))[d], 1e-15);
+    }
+  }
+  EXPECT_GT(ghosts, 0u);
+  EXPECT_NEAR(volume, 0.8 * 0.2 * 0.2, 1e-15);
+}
+
+}  // namespace
+}  // namespace pliant
