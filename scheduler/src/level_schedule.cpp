@@ -25,7 +25,8 @@ void plan_tick(std::span<const LevelJob> jobs, ScheduleKind kind, std::int64_t t
 
 int level_period(double stable_dt, double tick_dt) {
   int p = 1;
-  while (p < (1 << 20) && 2.0 * p * tick_dt <= stable_dt) p *= 2;
+  // (1 + 1e-12): a tick chosen as stable_dt / p must give p, whatever the rounding of the product.
+  while (p < (1 << 20) && 2.0 * p * tick_dt <= stable_dt * (1 + 1e-12)) p *= 2;
   return p;
 }
 

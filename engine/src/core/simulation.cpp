@@ -257,16 +257,60 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
 }
 
 template <class T>
+void current_state(const SimBody<T>& body, const Level<T>& L, CurrentState<T>& out) {
+  for (int k = 0; k < 3; ++k) {
+    out.x[k].assign(L.x[k].begin(), L.x[k].end());
+    out.v[k].assign(L.v[k].begin(), L.v[k].end());
+  }
+  for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
+    double x[3] = {0, 0, 0}, v[3] = {0, 0, 0};
+    for (auto e = L.ghost_offsets[i]; e < L.ghost_offsets[i + 1]; ++e) {
+      const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
+      const auto n = std::size_t(L.ghost_source_node[std::size_t(e)]);
+      const double w = L.ghost_weight[std::size_t(e)];
+      for (int k = 0; k < 3; ++k) {
+        x[k] += w * double(S.x[k][n]);
+        v[k] += w * double(S.v[k][n]);
+      }
+    }
+    const auto g = std::size_t(L.ghosts[i]);
+    for (int k = 0; k < 3; ++k) {
+      out.x[k][g] = T(x[k]);
+      out.v[k][g] = T(v[k]);
+    }
+  }
+}
+template void current_state<float>(const SimBody<float>&, const Level<float>&, CurrentState<float>&);
+template void current_state<double>(const SimBody<double>&, const Level<double>&, CurrentState<double>&);
+
+namespace {
+// Points ec at the level's current state (ghosts where their sources are now) if it has ghosts.
+template <class T>
+void use_current_state(const SimBody<T>& body, const Level<T>& L, ElementContext<T>& ec, CurrentState<T>& keep) {
+  if (L.ghosts.empty()) return;
+  current_state(body, L, keep);
+  for (int k = 0; k < 3; ++k) {
+    ec.x[k] = keep.x[k].data();
+    ec.v[k] = keep.v[k].data();
+  }
+}
+}  // namespace
+
+template <class T>
 void Simulation<T>::elastic_energies(Executor& exec, double& elastic) const {
   elastic = 0;
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels) {
       scratch.resize(L.tet_count);
-      const ElementContext<T> ec = element_context(L);
+      ElementContext<T> ec = element_context(L);
+      CurrentState<T> now;
+      use_current_state(body, L, ec, now);
       const EnergyPass<T> pass = energy_kernel<T>(L.model);
       double* out = scratch.data();
-      exec.parallel_for(L.tet_count, kTetGrain, [&](Range r) { pass(ec, r, out); });
-      for (std::size_t t = 0; t < L.tet_count; ++t) elastic += scratch[t];  // fixed order
+      for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)
+        exec.parallel_for(run.size(), kTetGrain, [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
+        for (std::size_t t = run.begin; t < run.end; ++t) elastic += scratch[t];  // fixed order
+      }
     }
 }
 
@@ -274,12 +318,17 @@ template <class T>
 double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) const {
   double kinetic = 0;
   stored = 0;
-  for (const SimBody<T>& body : bodies)
-    for (const Level<T>& L : body.levels) {
-      // Forces of the current state, as the next step's element pass and gather will compute
-      // them, into scratch arrays (allocated here: a report, not the hot path).
+  for (const SimBody<T>& body : bodies) {
+    // Forces of the current state, as the next step's element passes and gathers will compute
+    // them, into scratch arrays (allocated here: a report, not the hot path); for the levels of a
+    // multiresolution body, the ghosts' forces go to their sources as the step sends them.
+    std::vector<std::array<AlignedVector<T>, 3>> force(body.levels.size());
+    for (std::size_t l = 0; l < body.levels.size(); ++l) {
+      const Level<T>& L = body.levels[l];
       ElementContext<T> ec = element_context(L);
-      AlignedVector<T> corner[12], rotation[4], f[3];
+      CurrentState<T> now;
+      use_current_state(body, L, ec, now);
+      AlignedVector<T> corner[12], rotation[4];
       for (int q = 0; q < 12; ++q) {
         corner[q].assign(L.tet_count, T(0));
         ec.corner_force[q] = corner[q].data();
@@ -290,32 +339,53 @@ double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) 
           ec.rotation[k] = rotation[k].data();
         }
       const ElementPass<T> pass = force_kernel<T>(L.model);
-      exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain), [&](Range r) { pass(ec, r); });
+      for (const Range& run : L.stepped_runs)
+        exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
+                          [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}); });
       GatherContext<T> gc;
       gc.offsets = L.incidence_offsets.data();
       gc.incidence = L.incidence.data();
       for (int q = 0; q < 12; ++q) gc.corner_force[q] = corner[q].data();
       for (int k = 0; k < 3; ++k) {
-        f[k].assign(L.node_count, T(0));
+        force[l][k].assign(L.node_count, T(0));
         gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();
-        gc.f[k] = f[k].data();
+        gc.f[k] = force[l][k].data();
       }
       exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { gather_forces(gc, r); });
+    }
+    for (std::size_t l = 0; l < body.levels.size(); ++l) {
+      const Level<T>& L = body.levels[l];
+      std::vector<double> received;  // per receiver: the ghosts' forces, N (fixed order)
+      if (!L.receivers.empty()) {
+        received.assign(3 * L.receivers.size(), 0.0);
+        for (std::size_t i = 0; i < L.receivers.size(); ++i)
+          for (auto e = L.receive_offsets[i]; e < L.receive_offsets[i + 1]; ++e)
+            for (int k = 0; k < 3; ++k)
+              received[3 * i + std::size_t(k)] +=
+                  L.receive_weight[std::size_t(e)] *
+                  double(force[std::size_t(L.receive_ghost_level[std::size_t(e)])][std::size_t(k)]
+                              [std::size_t(L.receive_ghost_node[std::size_t(e)])]);
+      }
+      std::size_t next_receiver = 0;
       for (std::size_t n = 0; n < L.node_count; ++n) {  // fixed order
         const double m = double(L.mass[n]);
         const bool free = L.state[n] == kNodeFree;
+        const bool receives = next_receiver < L.receivers.size() && std::size_t(L.receivers[next_receiver]) == n;
         double vc2 = 0, v2 = 0;
         for (int k = 0; k < 3; ++k) {
           const double v = double(L.v[k][n]);
-          const double a = double(f[k][n]) * double(L.inv_mass[n]) + double(gravity[k]) - double(L.mass_damping) * v;
-          const double vc = free ? v + 0.5 * h * a : v;
+          const double fk = double(force[l][std::size_t(k)][n]) + (receives ? received[3 * next_receiver + std::size_t(k)] : 0.0);
+          const double a = fk * double(L.inv_mass[n]) + double(gravity[k]) - double(L.mass_damping) * v;
+          const double vc = free ? v + 0.5 * (h * L.period) * a : v;  // each level steps period x h
           vc2 += vc * vc;
           v2 += v * v;
         }
+        if (receives) ++next_receiver;
         kinetic += 0.5 * m * vc2;
         stored += 0.5 * m * v2;
       }
     }
+  }
   return kinetic;
 }
 
@@ -328,13 +398,16 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
       scratch.resize(L.tet_count);
       const ElementContext<T> ec = element_context(L);
       double* out = scratch.data();
-      if (L.model == ForceModel::stvk)
-        exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain),
-                          [&](Range r) { element_stiffness_ratio_stvk(ec, r, out); });
-      else
-        exec.parallel_for(L.tet_count, pass_grain(L.tet_count, kTetGrain),
-                          [&](Range r) { element_stiffness_ratio_corotational(ec, r, out); });
-      for (std::size_t t = 0; t < L.tet_count; ++t) ratio = std::max(ratio, scratch[t]);
+      for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)
+        const auto shifted = [&](Range r) { return Range{run.begin + r.begin, run.begin + r.end}; };
+        if (L.model == ForceModel::stvk)
+          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
+                            [&](Range r) { element_stiffness_ratio_stvk(ec, shifted(r), out); });
+        else
+          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
+                            [&](Range r) { element_stiffness_ratio_corotational(ec, shifted(r), out); });
+        for (std::size_t t = run.begin; t < run.end; ++t) ratio = std::max(ratio, scratch[t]);
+      }
     }
   return ratio;
 }

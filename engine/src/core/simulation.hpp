@@ -1,6 +1,7 @@
 // The precision-specific state behind World: bodies made of levels, prescribed motions, probes,
 // and the step. World holds one Simulation<float> or Simulation<double>.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <string>
@@ -100,6 +101,31 @@ struct ElementPiece {
   const LevelJobState<T>* job = nullptr;
   std::size_t first_tet = 0;
 };
+
+// A level's positions and velocities with its ghosts where their sources are now (a level's own
+// ghost entries are refreshed only at the start of its windows, so between windows they lag).
+// Copies, for reports and outputs: energies, snapshots, probes. Without ghosts: a plain copy.
+template <class T>
+struct CurrentState {
+  AlignedVector<T> x[3], v[3];
+};
+template <class T>
+void current_state(const SimBody<T>& body, const Level<T>& L, CurrentState<T>& out);
+// One node's current position (m): its own, or for a ghost where its sources are now.
+template <class T>
+Vec3d node_now(const SimBody<T>& body, const Level<T>& L, std::size_t node) {
+  Vec3d x{double(L.x[0][node]), double(L.x[1][node]), double(L.x[2][node])};
+  if (L.state[node] != kNodeGhost) return x;
+  const auto it = std::lower_bound(L.ghosts.begin(), L.ghosts.end(), std::int32_t(node));
+  const std::size_t i = std::size_t(it - L.ghosts.begin());
+  x = {0, 0, 0};
+  for (auto e = L.ghost_offsets[i]; e < L.ghost_offsets[i + 1]; ++e) {
+    const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
+    const auto n = std::size_t(L.ghost_source_node[std::size_t(e)]);
+    for (int k = 0; k < 3; ++k) x[std::size_t(k)] += L.ghost_weight[std::size_t(e)] * double(S.x[k][n]);
+  }
+  return x;
+}
 
 template <class T>
 class Simulation {

@@ -61,7 +61,7 @@ struct World::Impl {
     const TimeStepDef& ts = def.time_step;
     base_substeps = substeps = 1;
     if (!ts.dt) {
-      dt = stable_dt;
+      dt = aligned_tick();
       prepare();
       return;
     }
@@ -78,6 +78,27 @@ struct World::Impl {
     base_substeps = substeps = int(std::ceil(*ts.dt / stable_dt));
     dt = *ts.dt;
     prepare();
+  }
+
+  // The automatic step: the smallest stable bound, shortened (by less than kPeriodSlack) where that
+  // lets a coarser level of a multiresolution body take a period twice as long. The bounds of
+  // levels a ratio 2 apart are about 2x apart, but rarely exactly (the measured frequency of a
+  // coarser mesh converges from a different side): a coarse bound of 1.98x the fine one would
+  // otherwise give the coarse level period 1 and halve its saving.
+  static constexpr double kPeriodSlack = 1.25;
+  double aligned_tick() const {
+    return visit([&](auto& s) {
+      double tick = stable_dt;
+      for (auto& b : s.bodies) {
+        if (b.levels.size() < 2) continue;
+        for (auto& L : b.levels) {
+          double q = 1;
+          while (2 * q <= kPeriodSlack * L.stable_dt / stable_dt && q < double(1 << 20)) q *= 2;
+          tick = std::min(tick, L.stable_dt / q);
+        }
+      }
+      return tick;
+    });
   }
 
   // Jobs, periods and kernel contexts of every level for ticks of the step dt.
@@ -269,31 +290,37 @@ int World::add_probe(const ProbeDef& def) {
   const BodyId b = find_body(def.body);
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
   return impl_->visit([&](auto& s) {
-    const auto& L = s.bodies[std::size_t(b)].levels.back();  // the finest level
-    // The tet whose smallest barycentric weight is largest contains the point (or is nearest).
-    double best = -1e300;
+    const auto& body = s.bodies[std::size_t(b)];
+    // The finest level that steps a tet containing the point reads it (a single-level body: its
+    // only level); the tet whose smallest barycentric weight is largest contains the point (or is
+    // nearest).
     detail::ProbeState p;
     p.name = def.name;
     p.body = b;
-    p.level = int(s.bodies[std::size_t(b)].levels.size()) - 1;
-    for (std::size_t t = 0; t < L.tet_count; ++t) {
-      double c[4][3];
-      for (int a = 0; a < 4; ++a)
-        for (int k = 0; k < 3; ++k) c[a][k] = double(L.X[k][L.tet[a][t]]);
-      const double d[3] = {def.point[0] - c[0][0], def.point[1] - c[0][1], def.point[2] - c[0][2]};
-      double w[4];
-      w[0] = 1;
-      for (int a = 0; a < 3; ++a) {
-        const double g0 = double(L.grad[3 * a][t]), g1 = double(L.grad[3 * a + 1][t]), g2 = double(L.grad[3 * a + 2][t]);
-        w[a + 1] = g0 * d[0] + g1 * d[1] + g2 * d[2];
-        w[0] -= w[a + 1];
-      }
-      const double m = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
-      if (m > best) {
-        best = m;
-        p.tet = std::int32_t(t);
-        for (int a = 0; a < 4; ++a) p.weights[a] = w[a];
-      }
+    double best = -1e300;
+    for (int l = int(body.levels.size()) - 1; l >= 0 && best < -1e-6; --l) {
+      const auto& L = body.levels[std::size_t(l)];
+      for (const Range& run : L.stepped_runs)
+        for (std::size_t t = run.begin; t < run.end; ++t) {
+          double c[4][3];
+          for (int a = 0; a < 4; ++a)
+            for (int k = 0; k < 3; ++k) c[a][k] = double(L.X[k][L.tet[a][t]]);
+          const double d[3] = {def.point[0] - c[0][0], def.point[1] - c[0][1], def.point[2] - c[0][2]};
+          double w[4];
+          w[0] = 1;
+          for (int a = 0; a < 3; ++a) {
+            const double g0 = double(L.grad[3 * a][t]), g1 = double(L.grad[3 * a + 1][t]), g2 = double(L.grad[3 * a + 2][t]);
+            w[a + 1] = g0 * d[0] + g1 * d[1] + g2 * d[2];
+            w[0] -= w[a + 1];
+          }
+          const double m = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
+          if (m > best) {
+            best = m;
+            p.level = l;
+            p.tet = std::int32_t(t);
+            for (int a = 0; a < 4; ++a) p.weights[a] = w[a];
+          }
+        }
     }
     if (best < -1e-6)
       throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
@@ -448,11 +475,13 @@ const std::string& World::probe_name(int p) const {
 Vec3d World::probe_position(int p) const {
   return impl_->visit([&](auto& s) {
     const auto& pr = s.probes.at(std::size_t(p));
-    const auto& L = s.bodies[std::size_t(pr.body)].levels[std::size_t(pr.level)];
+    const auto& body = s.bodies[std::size_t(pr.body)];
+    const auto& L = body.levels[std::size_t(pr.level)];
     Vec3d out{0, 0, 0};
     for (int a = 0; a < 4; ++a) {
       const auto n = L.tet[a][std::size_t(pr.tet)];
-      for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * double(L.x[k][n]);
+      const Vec3d x = detail::node_now(body, L, std::size_t(n));
+      for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * x[k];
     }
     return out;
   });
