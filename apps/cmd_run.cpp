@@ -30,7 +30,8 @@ void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool 
 }
 
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
-                const std::string& precision, std::optional<double> duration, bool quiet, const PictureOptions& pic) {
+                const std::string& precision, std::optional<double> duration, bool quiet, const PictureOptions& pic,
+                const std::string& schedule) {
   SceneDef scene = load_scene_file(scene_path);
   RunOptions opt;
   opt.out_dir = out;
@@ -39,6 +40,9 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   else if (precision == "double") opt.precision = Precision::float64;
   else if (!precision.empty()) throw InputError(fmt::format("--precision must be float or double, got '{}'", precision));
   opt.duration = duration;
+  if (schedule == "staggered") opt.schedule = Schedule::staggered;
+  else if (schedule == "naive") opt.schedule = Schedule::naive;
+  else if (!schedule.empty()) throw InputError(fmt::format("--schedule must be staggered or naive, got '{}'", schedule));
   opt.progress = !quiet && isatty(STDERR_FILENO);
 
   // Pictures: options are checked before the run starts.
@@ -84,6 +88,14 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
       fmt::print("adaptive step: the deformation stiffened the elements up to {:.3g}x; {} of {} steps were split, into up "
                  "to {} sub-steps\n",
                  s.max_stiffness_ratio, s.adapted_steps, s.steps, s.max_substeps);
+    if (s.levels.size() > std::size_t(std::count_if(s.levels.begin(), s.levels.end(), [](const auto& l) { return l.level == 0; }))) {
+      for (const auto& l : s.levels)
+        fmt::print("  {} level {}: {} tets, {:.0f} stepped, {:.0f} ghost nodes, period {} ({:.4g} s)\n", l.body, l.level,
+                   l.tets, l.active_tets_mean, l.ghost_nodes_mean, l.period, l.dt);
+      fmt::print("ticks ({}): {:.0f} tets mean, {} max; {:.1f} us mean, p50 {:.1f}, p99 {:.1f}, max {:.1f}\n", s.schedule,
+                 s.tick_tet_updates_mean, s.tick_tet_updates_max, s.tick_mean_us, s.tick_p50_us, s.tick_p99_us,
+                 s.tick_max_us);
+    }
     fmt::print("max displacement {:.4g} m, kinetic {:.4g} J, elastic {:.4g} J, state hash {}\n", s.max_displacement,
                s.kinetic_energy, s.elastic_energy, s.state_hash);
     fmt::print("results in {}/ (summary.json{}{})\n", fs::path(out).string(),
@@ -103,7 +115,7 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
 
 Command add_run_command(CLI::App& app) {
   struct Options {
-    std::string scene, out = "out", precision;
+    std::string scene, out = "out", precision, schedule;
     std::optional<int> threads;
     std::optional<double> duration;
     bool quiet = false;
@@ -116,6 +128,9 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--threads", o->threads, "Worker threads (overrides the scene; 0 = all cores)");
   run->add_option("--precision", o->precision, "float or double (overrides the scene)");
   run->add_option("--duration", o->duration, "Simulated seconds (overrides the scene)");
+  run->add_option("--schedule", o->schedule,
+                  "How multiresolution levels share the ticks: staggered (coarse work in slices, every tick costs "
+                  "about the same; the default) or naive (every coarse level on the same tick)");
   run->add_flag("--quiet,-q", o->quiet, "No progress line and no report");
   run->add_option("--png-every", o->pic.png_every, "Write a picture every S simulated seconds: OUT/frames/frame_NNNNN.png");
   run->add_flag("--sheet", o->pic.sheet, "Write OUT/sheet.png, a contact sheet of the run (pictures with their times)");
@@ -125,7 +140,7 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--camera", o->pic.camera, "scene (the scene's camera block, else auto), auto, front, side or top")
       ->capture_default_str();
   return {run, [o] {
-            return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->pic);
+            return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->pic, o->schedule);
           }};
 }
 

@@ -118,10 +118,14 @@ TetMesh extract_tets(const C3t3& c3t3) {
 
 // Mesh_3 with the reproducible settings described at the top of the file.
 template <class C3t3, class Domain, class Criteria>
-TetMesh run_mesh_3(const Domain& domain, const Criteria& criteria) {
+TetMesh run_mesh_3(const Domain& domain, const Criteria& criteria, bool perturb = false) {
   namespace P = CGAL::parameters;  // CGAL 5.5: old Boost.Parameter syntax
-  const C3t3 c3t3 =
-      CGAL::make_mesh_3<C3t3>(domain, criteria, P::no_perturb(), P::exude(P::time_limit = 0));
+  // perturb: also the sliver perturber, run to its end (time_limit = 0: reproducible). It lifts
+  // the smallest dihedral angles of coarse meshes of simplified surfaces (6 deg -> see
+  // mesh_closed_surface), at 4-5x the cost: nothing for the few hundred tets of a coarse level.
+  const C3t3 c3t3 = perturb ? CGAL::make_mesh_3<C3t3>(domain, criteria, P::odt(P::max_iteration_number = 40),
+                                                      P::perturb(P::time_limit = 0), P::exude(P::time_limit = 0))
+                            : CGAL::make_mesh_3<C3t3>(domain, criteria, P::no_perturb(), P::exude(P::time_limit = 0));
   return extract_tets(c3t3);
 }
 
@@ -242,12 +246,17 @@ bool meshing_available() { return true; }
 namespace {
 
 // Mesh_3 of the inside of a closed surface (mesh_surface_file and mesh_closed_surface).
-TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& what) {
+// smooth_only: no sharp-feature protection (the coarse levels of a hierarchy: a simplified organic
+// surface is all "sharp" edges at 60 deg, and protecting them leaves tets far smaller than s).
+TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& what, bool perturb = false,
+                    bool smooth_only = false) {
   check_cell_size(cell_size, std::abs(PMP::volume(sm)), what);
   namespace P = CGAL::parameters;
   const double s = cell_size;
+  // A coarse level's surface is already simplified: follow it to s/4 (as implicit shapes), not
+  // s/8, which only adds thin tets along its creases.
   const CGAL::Mesh_criteria_3<SurfaceTr> criteria(
-      P::edge_size = s, P::facet_angle = 25, P::facet_size = s, P::facet_distance = s / 8,
+      P::edge_size = s, P::facet_angle = 25, P::facet_size = s, P::facet_distance = smooth_only ? s / 4 : s / 8,
       P::cell_radius_edge_ratio = 3, P::cell_size = s);
 
   // First with sharp edges (normals > 60 deg apart) protected, which keeps a CAD part's edges
@@ -255,12 +264,16 @@ TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& 
   // are short, ragged polylines whose protecting balls leave tets of 1e-9 s^3 (fatal for an
   // explicit solver, and rejected by finalize_tet_mesh): then mesh again without features.
   // Good meshes have a smallest tet of 1e-3 to 5e-2 s^3.
+  if (smooth_only) {
+    const SurfaceDomain smooth(sm);
+    return finalized(run_mesh_3<SurfaceC3t3>(smooth, criteria, perturb), what);
+  }
   SurfaceDomain with_features(sm);
   with_features.detect_features(60);
-  TetMesh mesh = run_mesh_3<SurfaceC3t3>(with_features, criteria);
+  TetMesh mesh = run_mesh_3<SurfaceC3t3>(with_features, criteria, perturb);
   if (!(min_tet_volume(mesh) >= 1e-5 * s * s * s)) {
     const SurfaceDomain smooth(sm);
-    mesh = run_mesh_3<SurfaceC3t3>(smooth, criteria);
+    mesh = run_mesh_3<SurfaceC3t3>(smooth, criteria, perturb);
   }
   return finalized(std::move(mesh), what);
 }
@@ -288,7 +301,7 @@ TetMesh mesh_closed_surface(const TriangleSurface& surface, double cell_size, co
     if (sm.add_face(v[std::size_t(t[0])], v[std::size_t(t[1])], v[std::size_t(t[2])]) == SurfaceMesh::null_face())
       throw InputError(fmt::format("meshing {}: the surface is not manifold", what));
   if (!CGAL::is_closed(sm)) throw InputError(fmt::format("meshing {}: the surface is not closed", what));
-  return mesh_inside(sm, cell_size, what);
+  return mesh_inside(sm, cell_size, what, /*perturb=*/true, /*smooth_only=*/true);
 }
 
 TetMesh mesh_implicit_shape(const std::string& name, double cell_size) {

@@ -59,8 +59,10 @@ bool Executor::run_all(std::size_t n, std::size_t grain, PredFn fn, const void* 
 void Executor::split(std::size_t count, std::size_t (*n_of)(const void*, std::size_t),
                      std::size_t (*grain_of)(const void*, std::size_t), const void* segments) {
   chunks_.clear();
+  total_ = 0;
   for (std::size_t i = 0; i < count; ++i) {
     const std::size_t n = n_of(segments, i), grain = std::max<std::size_t>(grain_of(segments, i), 1);
+    total_ += n;
     for (std::size_t b = 0; b < n; b += grain) chunks_.push_back({std::uint32_t(i), Range{b, std::min(n, b + grain)}});
   }
 }
@@ -69,7 +71,7 @@ void Executor::run_segments(const Segment* s, std::size_t count) {
   split(count, [](const void* p, std::size_t i) { return static_cast<const Segment*>(p)[i].n; },
         [](const void* p, std::size_t i) { return static_cast<const Segment*>(p)[i].grain; }, s);
   if (chunks_.empty()) return;
-  if (!arena_ || chunks_.size() == 1) {
+  if (!arena_ || chunks_.size() == 1 || total_ < kSerialTotal) {
     for (const Chunk& c : chunks_) s[c.segment].fn(s[c.segment].ctx, c.range);
     return;
   }
@@ -89,7 +91,7 @@ bool Executor::run_segments_all(const PredicateSegment* s, std::size_t count) {
   split(count, [](const void* p, std::size_t i) { return static_cast<const PredicateSegment*>(p)[i].n; },
         [](const void* p, std::size_t i) { return static_cast<const PredicateSegment*>(p)[i].grain; }, s);
   if (chunks_.empty()) return true;
-  if (!arena_ || chunks_.size() == 1) {
+  if (!arena_ || chunks_.size() == 1 || total_ < kSerialTotal) {
     bool all = true;
     for (const Chunk& c : chunks_) all &= s[c.segment].fn(s[c.segment].ctx, c.range);
     return all;

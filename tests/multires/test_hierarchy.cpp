@@ -137,3 +137,73 @@ TEST(Activation, StaticSplitTilesTheBoxAndGhostsAreExact) {
 
 }  // namespace
 }  // namespace pliant
+
+#ifdef PLIANT_HAS_CGAL
+namespace pliant {
+namespace {
+
+// The levels of a non-nested hierarchy leave slivers between their stepped parts; every stepped
+// part must still be tied to the others (through ghosts), or it floats free. One connected piece:
+// union of the corners of every stepped tet and of every ghost with its sources.
+std::size_t pieces(const Hierarchy& h, const detail::Activation& act) {
+  std::vector<std::size_t> base(h.levels() + 1, 0);
+  for (std::size_t l = 0; l < h.levels(); ++l) base[l + 1] = base[l] + h.meshes[l].node_count();
+  std::vector<std::size_t> parent(base.back());
+  for (std::size_t i = 0; i < parent.size(); ++i) parent[i] = i;
+  auto find = [&](std::size_t i) {
+    while (parent[i] != i) i = parent[i] = parent[parent[i]];
+    return i;
+  };
+  auto unite = [&](std::size_t a, std::size_t b) { parent[find(a)] = find(b); };
+  std::vector<char> used(base.back(), 0);
+  for (std::size_t l = 0; l < h.levels(); ++l) {
+    const auto& la = act.levels[l];
+    for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t) {
+      if (!la.stepped[t]) continue;
+      const Tet& q = h.meshes[l].tets[t];
+      for (int a = 0; a < 4; ++a) used[base[l] + std::size_t(q[a])] = 1;
+      for (int a = 1; a < 4; ++a) unite(base[l] + std::size_t(q[0]), base[l] + std::size_t(q[a]));
+    }
+    for (std::size_t g = 0; g < la.ghosts.size(); ++g)
+      for (auto e = la.source_offsets[g]; e < la.source_offsets[g + 1]; ++e)
+        unite(base[l] + std::size_t(la.ghosts[g]),
+              base[std::size_t(la.sources[std::size_t(e)].level)] + std::size_t(la.sources[std::size_t(e)].node));
+  }
+  std::size_t roots = 0;
+  for (std::size_t i = 0; i < parent.size(); ++i) roots += used[i] && find(i) == i;
+  return roots;
+}
+
+TEST(Activation, NonNestedOrganLevelsStayOnePiece) {
+  BodyDef b;
+  b.mesh.kind = MeshSourceDef::Kind::implicit;
+  b.mesh.shape = "organ";
+  b.mesh.cell_size = 0.01;
+  b.multiresolution.levels = 3;
+  const Hierarchy h = link_levels(build_level_meshes(b, build_mesh(b.mesh)));
+  std::vector<Vec3d> centres;
+  for (double x = -0.08; x <= 0.081; x += 0.04)
+    for (double y = -0.04; y <= 0.041; y += 0.04)
+      for (double z = -0.02; z <= 0.021; z += 0.02) centres.push_back({x, y, z});
+  int bad = 0;
+  for (const Vec3d& centre : centres) {
+    ActiveDef a;
+    a.kind = ActiveDef::Kind::regions;
+    ActiveRegionDef fine;
+    fine.level = 2;
+    fine.region.kind = RegionDef::Kind::sphere;
+    fine.region.center = centre;
+    fine.region.radius = 0.04;
+    a.regions = {fine};
+    const detail::Activation act = detail::activate(h, a);
+    if (pieces(h, act) != 1) ++bad;
+    EXPECT_EQ(pieces(h, act), 1u) << centre[0] << " " << centre[1] << " " << centre[2];
+  }
+  // Measured: 0 of 45; with the nodes of slivers left untied (reach 0), 5 of 45 had a stepped part
+  // floating free.
+  EXPECT_EQ(bad, 0);
+}
+
+}  // namespace
+}  // namespace pliant
+#endif

@@ -17,6 +17,7 @@ struct RunOptions {
   std::optional<int> threads;              // override the scene's
   std::optional<Precision> precision;      // override the scene's
   std::optional<double> duration;          // override the scene's (s)
+  std::optional<Schedule> schedule;        // override the scene's
   bool progress = false;                   // a progress line on stderr (rewritten in place)
   bool write_files = true;                 // false: compute only (tests, studies)
   // Called on the initial state and then every `frame_every` simulated seconds (0: never), for
@@ -43,6 +44,21 @@ struct RunSummary {
   std::string state_hash;        // 16 hex digits
   std::vector<std::string> files;  // written, relative to out_dir
   std::vector<std::string> notes;  // what loading fixed in the meshes, one line per body that needed it
+  // Multiresolution and the schedule (docs/multiresolution.md): every level of every body, the
+  // tets computed over the run, and the per-tick work and wall time.
+  struct Level {
+    std::string body;
+    int level = 0, period = 1;
+    std::size_t nodes = 0, tets = 0;
+    double active_tets_mean = 0, ghost_nodes_mean = 0;  // stepped tets, ghost nodes (means over the ticks)
+    double dt = 0;  // s
+  };
+  std::vector<Level> levels;
+  std::string schedule = "staggered";
+  double tet_updates = 0;                    // tets computed, summed over the run
+  double tick_tet_updates_mean = 0;
+  std::size_t tick_tet_updates_max = 0;
+  double tick_mean_us = 0, tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0;
 };
 
 // A World holding the scene's bodies and probes (meshes built, regions resolved).

@@ -15,8 +15,21 @@
 #include "pliant/error.hpp"
 #include "pliant/level.hpp"
 #include "pliant/tet_mesh.hpp"
+#include "pliant/tick_stats.hpp"
 
 namespace pliant {
+
+// One level of a body as the step uses it (a single-level body has one, all of it stepped).
+struct LevelInfo {
+  int level = 0;                 // 0 = coarsest
+  std::size_t nodes = 0, tets = 0;
+  std::size_t stepped_tets = 0;  // tets this level steps (its active part)
+  std::size_t active_nodes = 0;  // nodes it integrates (free or fixed)
+  std::size_t ghost_nodes = 0;   // nodes that follow coarser levels
+  int period = 1;                // fine ticks per step of the level
+  double dt = 0;                 // s, its step: period x the tick
+  double stable_dt = 0;          // s, its stable bound
+};
 
 using BodyId = int;
 
@@ -72,12 +85,16 @@ class World {
   double max_stiffness_ratio() const;
   Vec3d gravity() const;           // m/s^2
   Precision precision() const;
+  Schedule schedule() const;
   int threads() const;
 
   std::size_t body_count() const;
   BodyId find_body(std::string_view name) const;  // -1 if there is none
   const BodyDef& body_def(BodyId body) const;
   int level_count(BodyId body) const;
+  LevelInfo level_info(BodyId body, int level) const;
+  // Work and wall time per fine tick (every sub-step of step() is a tick), since the world began.
+  const TickStats& tick_stats() const;
   std::size_t node_count(BodyId body, int level = 0) const;
   std::size_t tet_count(BodyId body, int level = 0) const;
   // What loading did to the body's mesh: non-tetrahedral cells skipped, inverted tets re-oriented,

@@ -20,6 +20,7 @@ World make_world(const SceneDef& scene, const RunOptions& options) {
   WorldDef wd = scene.world;
   if (options.threads) wd.threads = *options.threads;
   if (options.precision) wd.precision = *options.precision;
+  if (options.schedule) wd.schedule = *options.schedule;
   World world(wd);
   for (const BodyDef& b : scene.bodies) world.add_body(b);
   for (const ProbeDef& p : scene.probes) world.add_probe(p);
@@ -105,6 +106,20 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   j["elastic_energy"] = s.elastic_energy;
   j["potential_energy"] = s.potential_energy;
   j["state_hash"] = s.state_hash;
+  j["schedule"] = s.schedule;
+  nlohmann::ordered_json levels = nlohmann::ordered_json::array();
+  for (const auto& l : s.levels)
+    levels.push_back({{"body", l.body}, {"level", l.level}, {"nodes", l.nodes}, {"tets", l.tets},
+                      {"active_tets_mean", l.active_tets_mean}, {"ghost_nodes_mean", l.ghost_nodes_mean},
+                      {"period", l.period}, {"dt", l.dt}});
+  j["levels"] = levels;
+  j["tet_updates"] = s.tet_updates;
+  j["tick_tet_updates_mean"] = s.tick_tet_updates_mean;
+  j["tick_tet_updates_max"] = s.tick_tet_updates_max;
+  j["tick_mean_us"] = s.tick_mean_us;
+  j["tick_p50_us"] = s.tick_p50_us;
+  j["tick_p99_us"] = s.tick_p99_us;
+  j["tick_max_us"] = s.tick_max_us;
   j["files"] = s.files;
   if (!s.notes.empty()) j["notes"] = s.notes;
   std::ofstream out(path);
@@ -128,9 +143,11 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   s.dt = world.dt();
   s.stable_dt = world.stable_dt();
   s.substeps = world.substeps();
+  s.schedule = to_string(world.schedule());
   for (std::size_t b = 0; b < world.body_count(); ++b) {
-    s.nodes += world.node_count(BodyId(b));
-    s.tets += world.tet_count(BodyId(b));
+    const int finest = world.level_count(BodyId(b)) - 1;  // the body's mesh as given
+    s.nodes += world.node_count(BodyId(b), finest);
+    s.tets += world.tet_count(BodyId(b), finest);
     const MeshLoadReport& r = world.mesh_load_report(BodyId(b));
     if (r.skipped_cells || r.reoriented_tets || r.dropped_vertices)
       s.notes.push_back(fmt::format("body '{}': mesh loaded with {} non-tetrahedral cell(s) skipped, {} inverted tet(s) "
@@ -197,6 +214,21 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   s.simulated_time = world.time();
   s.steps_per_second = s.wall_time_s > 0 ? double(s.steps) / s.wall_time_s : 0;
   s.state_hash = hash_hex(world.state_hash());
+  for (std::size_t b = 0; b < world.body_count(); ++b)
+    for (int l = 0; l < world.level_count(BodyId(b)); ++l) {
+      const LevelInfo i = world.level_info(BodyId(b), l);
+      // A static split: the stepped set does not change during the run, so its mean is its size.
+      s.levels.push_back({world.body_def(BodyId(b)).name, l, i.period, i.nodes, i.tets, double(i.stepped_tets),
+                          double(i.ghost_nodes), i.dt});
+    }
+  const TickStats& ts = world.tick_stats();
+  s.tet_updates = ts.tet_updates();
+  s.tick_tet_updates_mean = ts.tets_mean();
+  s.tick_tet_updates_max = ts.tets_max();
+  s.tick_mean_us = 1e6 * ts.mean_s();
+  s.tick_p50_us = 1e6 * ts.quantile_s(0.5);
+  s.tick_p99_us = 1e6 * ts.quantile_s(0.99);
+  s.tick_max_us = 1e6 * ts.max_s();
   if (s.status == "ok") {
     const Energies e = world.energies();
     s.kinetic_energy = e.kinetic;

@@ -3,6 +3,7 @@
 // offers the zero-copy and measuring accessors hosts and the runner use.
 #include "pliant/world.hpp"
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fmt/format.h>
@@ -32,6 +33,7 @@ struct World::Impl {
   int max_substeps = 1;        // most sub-steps any step() took
   std::int64_t adapted_steps = 0;  // step() calls that took more sub-steps than base_substeps
   double stiffness_ratio = 1;  // last measured (adapt_substeps)
+  TickStats ticks;
   double max_stiffness_ratio = 1;
 
 
@@ -286,34 +288,49 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
   return id;
 }
 
+namespace {
+
+// Barycentric weights of point p in tet t of level L (sum 1), and their smallest.
+template <class T>
+double tet_weights(const Level<T>& L, std::size_t t, const Vec3d& p, double w[4]) {
+  const std::int32_t a0 = L.tet[0][t];
+  const double d[3] = {p[0] - double(L.X[0][a0]), p[1] - double(L.X[1][a0]), p[2] - double(L.X[2][a0])};
+  w[0] = 1;
+  for (int a = 0; a < 3; ++a) {
+    w[a + 1] = double(L.grad[3 * a][t]) * d[0] + double(L.grad[3 * a + 1][t]) * d[1] + double(L.grad[3 * a + 2][t]) * d[2];
+    w[0] -= w[a + 1];
+  }
+  return std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
+}
+
+}  // namespace
+
 int World::add_probe(const ProbeDef& def) {
   const BodyId b = find_body(def.body);
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
   return impl_->visit([&](auto& s) {
     const auto& body = s.bodies[std::size_t(b)];
+    constexpr double kInside = -1e-6;  // barycentric: a point on a face counts as inside
+    // The point must lie in the body's mesh as given (the finest level, all of it).
+    const auto& fine = body.levels.back();
+    double inside = -1e300;
+    double w[4];
+    for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, tet_weights(fine, t, def.point, w));
+    if (inside < kInside)
+      throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
+                                   def.point[1], def.point[2], def.body));
     // The finest level that steps a tet containing the point reads it (a single-level body: its
-    // only level); the tet whose smallest barycentric weight is largest contains the point (or is
-    // nearest).
+    // only level); where the levels' meshes differ at the surface and none does, the stepped tet
+    // nearest to containing it, with its weights clamped to the tet.
     detail::ProbeState p;
     p.name = def.name;
     p.body = b;
     double best = -1e300;
-    for (int l = int(body.levels.size()) - 1; l >= 0 && best < -1e-6; --l) {
+    for (int l = int(body.levels.size()) - 1; l >= 0 && best < kInside; --l) {
       const auto& L = body.levels[std::size_t(l)];
       for (const Range& run : L.stepped_runs)
         for (std::size_t t = run.begin; t < run.end; ++t) {
-          double c[4][3];
-          for (int a = 0; a < 4; ++a)
-            for (int k = 0; k < 3; ++k) c[a][k] = double(L.X[k][L.tet[a][t]]);
-          const double d[3] = {def.point[0] - c[0][0], def.point[1] - c[0][1], def.point[2] - c[0][2]};
-          double w[4];
-          w[0] = 1;
-          for (int a = 0; a < 3; ++a) {
-            const double g0 = double(L.grad[3 * a][t]), g1 = double(L.grad[3 * a + 1][t]), g2 = double(L.grad[3 * a + 2][t]);
-            w[a + 1] = g0 * d[0] + g1 * d[1] + g2 * d[2];
-            w[0] -= w[a + 1];
-          }
-          const double m = std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
+          const double m = tet_weights(L, t, def.point, w);
           if (m > best) {
             best = m;
             p.level = l;
@@ -322,9 +339,11 @@ int World::add_probe(const ProbeDef& def) {
           }
         }
     }
-    if (best < -1e-6)
-      throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
-                                   def.point[1], def.point[2], def.body));
+    if (best < kInside) {
+      double sum = 0;
+      for (double& x : p.weights) sum += (x = std::max(x, 0.0));
+      for (double& x : p.weights) x /= sum;
+    }
     s.probes.push_back(p);
     return int(s.probes.size()) - 1;
   });
@@ -344,7 +363,14 @@ void World::step() {
   for (int i = 0; i < n; ++i) {
     std::string where;
     const double t = w.time + h * i;
-    const bool ok = w.visit([&](auto& s) { return s.step(w.exec, t, h, where, w.steps); });
+    const auto start = std::chrono::steady_clock::now();
+    std::size_t tets = 0;
+    const bool ok = w.visit([&](auto& s) {
+      const bool r = s.step(w.exec, t, h, where, w.steps);
+      tets = s.last_tick_tets();
+      return r;
+    });
+    w.ticks.add(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), tets);
     if (!ok) throw DivergenceError("diverged: " + where);
   }
   ++w.steps;
@@ -362,6 +388,7 @@ double World::stiffness_ratio() const { return impl_->stiffness_ratio; }
 double World::max_stiffness_ratio() const { return impl_->max_stiffness_ratio; }
 Vec3d World::gravity() const { return impl_->def.gravity; }
 Precision World::precision() const { return impl_->def.precision; }
+Schedule World::schedule() const { return impl_->def.schedule; }
 int World::threads() const { return impl_->exec.threads(); }
 
 std::size_t World::body_count() const {
@@ -377,6 +404,24 @@ BodyId World::find_body(std::string_view name) const {
 const BodyDef& World::body_def(BodyId b) const {
   return impl_->visit([&](auto& s) -> const BodyDef& { return impl_->body(s, b).def; });
 }
+LevelInfo World::level_info(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    LevelInfo i;
+    i.level = l;
+    i.nodes = L.node_count;
+    i.tets = L.tet_count;
+    i.stepped_tets = L.stepped_count;
+    i.ghost_nodes = L.ghosts.size();
+    for (auto st : L.state) i.active_nodes += st == kNodeFree || st == kNodeFixed;
+    i.period = L.period;
+    i.dt = L.period * impl_->dt / impl_->substeps;
+    i.stable_dt = L.stable_dt;
+    return i;
+  });
+}
+const TickStats& World::tick_stats() const { return impl_->ticks; }
+
 int World::level_count(BodyId b) const {
   return impl_->visit([&](auto& s) { return int(impl_->body(s, b).levels.size()); });
 }

@@ -32,6 +32,17 @@ double mesh_diagonal(const TetMesh& m) {
   return std::hypot(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]);
 }
 
+double mean_edge(const TetMesh& m) {
+  double sum = 0;
+  for (const Tet& t : m.tets)
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const Vec3d p = m.point(std::size_t(t[std::size_t(a)])), q = m.point(std::size_t(t[std::size_t(b)]));
+        sum += std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+      }
+  return m.tets.empty() ? 0 : sum / (6.0 * double(m.tets.size()));
+}
+
 }  // namespace
 
 std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& active) {
@@ -111,6 +122,11 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
   std::vector<TetLocator> locators;
   locators.reserve(std::size_t(n));
   for (int l = 0; l < n; ++l) locators.emplace_back(h.meshes[std::size_t(l)]);
+  // Non-nested meshes leave slivers between the stepped tets of neighbouring levels; a node of a
+  // finer level this close to a coarser stepped tet (a quarter of its own level's mean edge) is
+  // still tied to it, with clamped weights, so that no stepped part floats free of the others.
+  std::vector<double> reach(static_cast<std::size_t>(n));
+  for (int l = 0; l < n; ++l) reach[std::size_t(l)] = 0.25 * mean_edge(h.meshes[std::size_t(l)]);
   for (int l = 0; l < n; ++l) {
     const TetMesh& m = h.meshes[std::size_t(l)];
     LevelActivation& la = a.levels[std::size_t(l)];
@@ -125,7 +141,8 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
       if (!used[i]) continue;
       la.role[i] = NodeRole::active;
       for (int c = 0; c < l; ++c) {  // the coarsest stepped tet covering the node
-        const TetLink link = locators[std::size_t(c)].containing(m.point(i), a.levels[std::size_t(c)].stepped);
+        const TetLink link =
+            locators[std::size_t(c)].containing_or_near(m.point(i), a.levels[std::size_t(c)].stepped, reach[std::size_t(l)]);
         if (link.tet < 0) continue;
         la.role[i] = NodeRole::ghost;
         acc.clear();

@@ -178,6 +178,38 @@ TetLink TetLocator::containing(const Vec3d& p, const std::vector<std::uint8_t>& 
   return best;
 }
 
+TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const {
+  TetLink best = containing(p, mask);
+  if (best.tet >= 0 || !(radius > 0)) return best;
+  double best_d = radius;
+  Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
+  const Cell a = cell_of(lo), b = cell_of(hi);
+  for (int z = a[2]; z <= b[2]; ++z)
+    for (int y = a[1]; y <= b[1]; ++y)
+      for (int x = a[0]; x <= b[0]; ++x) {
+        const std::size_t k = bucket({x, y, z});
+        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
+          const std::int32_t t = items_[std::size_t(i)];
+          if (!mask[std::size_t(t)]) continue;
+          auto w = weights(t, p);
+          double sum = 0;
+          for (double& v : w) sum += (v = std::max(v, 0.0));
+          for (double& v : w) v /= sum;
+          Vec3d q{0, 0, 0};
+          for (int c = 0; c < 4; ++c)
+            for (int d = 0; d < 3; ++d) q[std::size_t(d)] += w[std::size_t(c)] * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(c)]) + std::size_t(d)];
+          const double dist = std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+          if (dist < best_d || (dist == best_d && best.tet >= 0 && t < best.tet)) {
+            best_d = dist;
+            best.tet = t;
+            best.weights = w;
+            best.outside = dist;
+          }
+        }
+      }
+  return best;
+}
+
 NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
   Vec3d hi;
   bounds(mesh, lo_, hi);

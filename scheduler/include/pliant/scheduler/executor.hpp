@@ -64,6 +64,10 @@ class Executor {
     Range range;
   };
   std::vector<Chunk> chunks_;  // scratch of run_segments: grows to the largest tick, then stays
+  std::size_t total_ = 0;      // items in chunks_
+  // Below this many items in all, the segments run on the calling thread: waking the other
+  // threads costs more than the work (as kSerialBelow for single loops, pliant/level_passes.hpp).
+  static constexpr std::size_t kSerialTotal = 2048;
   void split(std::size_t count, std::size_t (*n)(const void*, std::size_t), std::size_t (*grain)(const void*, std::size_t),
              const void* segments);
 
