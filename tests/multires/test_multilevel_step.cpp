@@ -41,10 +41,10 @@ BodyDef split_bar(ForceModel model = ForceModel::corotational, int levels = 3) {
   return b;
 }
 
-WorldDef world_def(int threads = 1) {
+WorldDef world_def(int threads = 1, Precision precision = Precision::float64) {
   WorldDef w;
   w.gravity = {0, 0, 0};
-  w.precision = Precision::float64;
+  w.precision = precision;
   w.threads = threads;
   w.time_step.adapt = false;
   return w;
@@ -56,19 +56,21 @@ struct Momenta {
 
 // Linear and angular momentum of the nodes, plus the impulses received and not applied yet (at the
 // positions they will be applied at).
+template <class T = double>
 Momenta momenta(const World& w, BodyId b) {
   Momenta m;
   for (int lv = 0; lv < w.level_count(b); ++lv) {
-    const Level<double>& L = w.level<double>(b, lv);
+    const Level<T>& L = w.level<T>(b, lv);
     for (std::size_t n = 0; n < L.node_count; ++n) {
       double q[3];
-      for (int k = 0; k < 3; ++k) q[k] = L.mass[n] * L.v[k][n] + (L.impulse[k].empty() ? 0.0 : L.impulse[k][n]);
-      const double x[3] = {L.x[0][n], L.x[1][n], L.x[2][n]};
+      for (int k = 0; k < 3; ++k)
+        q[k] = double(L.mass[n]) * double(L.v[k][n]) + (L.impulse[k].empty() ? 0.0 : double(L.impulse[k][n]));
+      const double x[3] = {double(L.x[0][n]), double(L.x[1][n]), double(L.x[2][n])};
       for (int k = 0; k < 3; ++k) m.p[k] += q[k];
       m.l[0] += x[1] * q[2] - x[2] * q[1];
       m.l[1] += x[2] * q[0] - x[0] * q[2];
       m.l[2] += x[0] * q[1] - x[1] * q[0];
-      m.mass += L.mass[n];
+      m.mass += double(L.mass[n]);
     }
   }
   return m;
@@ -96,70 +98,105 @@ TEST(MultilevelStep, TotalMassIsDensityTimesVolume) {
 // Patch test: every node of every level on an affine map of the rest state, the outer boundary
 // held there; after one window of every level no free node has moved: no node, interface nodes
 // included, feels a net force.
+template <class T>
+double largest_speed_after_affine_map(ForceModel model, std::size_t& free_nodes, int levels = 3) {
+  BodyDef def = split_bar(model, levels);
+  if (levels == 1) def.multiresolution = {};
+  for (int k = 0; k < 3; ++k) {  // the six faces held
+    RegionDef lo, hi;
+    lo.min = {-1, -1, -1};
+    lo.max = {2, 2, 2};
+    hi = lo;
+    lo.max[k] = 0;
+    hi.min[k] = k == 0 ? kL : kW;
+    def.fixed.push_back(lo);
+    def.fixed.push_back(hi);
+  }
+  World w(world_def(1, sizeof(T) == 4 ? Precision::float32 : Precision::float64));
+  const BodyId b = w.add_body(def);
+  const double A[3][3] = {{0.02, 0.01, -0.005}, {0.004, -0.01, 0.003}, {0.006, 0.002, 0.015}};
+  for (int l = 0; l < levels; ++l) {
+    Level<T>& L = w.level<T>(b, l);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int i = 0; i < 3; ++i) {
+        const double X[3] = {double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
+        L.x[i][n] = T(X[i] + A[i][0] * X[0] + A[i][1] * X[1] + A[i][2] * X[2]);
+      }
+  }
+  for (int t = 0; t < 4; ++t) w.step();
+  double vmax = 0;
+  free_nodes = 0;
+  for (int l = 0; l < levels; ++l) {
+    const Level<T>& L = w.level<T>(b, l);
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (L.state[n] != kNodeFree) continue;
+      ++free_nodes;
+      for (int k = 0; k < 3; ++k) vmax = std::max(vmax, std::abs(double(L.v[k][n])));
+    }
+  }
+  return vmax;
+}
+
 TEST(MultilevelStep, AffineStateIsInEquilibriumAcrossTheInterfaces) {
   for (ForceModel model : {ForceModel::linear, ForceModel::stvk, ForceModel::corotational}) {
     SCOPED_TRACE(to_string(model));
-    BodyDef def = split_bar(model);
-    for (int k = 0; k < 3; ++k) {  // the six faces held
-      RegionDef lo, hi;
-      lo.min = {-1, -1, -1};
-      lo.max = {2, 2, 2};
-      hi = lo;
-      lo.max[k] = 0;
-      hi.min[k] = k == 0 ? kL : kW;
-      def.fixed.push_back(lo);
-      def.fixed.push_back(hi);
-    }
-    World w(world_def());
-    const BodyId b = w.add_body(def);
-    const double A[3][3] = {{0.02, 0.01, -0.005}, {0.004, -0.01, 0.003}, {0.006, 0.002, 0.015}};
-    for (int l = 0; l < 3; ++l) {
-      Level<double>& L = w.level<double>(b, l);
-      for (std::size_t n = 0; n < L.node_count; ++n)
-        for (int i = 0; i < 3; ++i)
-          L.x[i][n] = L.X[i][n] + A[i][0] * L.X[0][n] + A[i][1] * L.X[1][n] + A[i][2] * L.X[2][n];
-    }
-    for (int t = 0; t < 4; ++t) w.step();
-    double vmax = 0;
     std::size_t free_nodes = 0;
-    for (int l = 0; l < 3; ++l) {
-      const Level<double>& L = w.level<double>(b, l);
-      for (std::size_t n = 0; n < L.node_count; ++n) {
-        if (L.state[n] != kNodeFree) continue;
-        ++free_nodes;
-        for (int k = 0; k < 3; ++k) vmax = std::max(vmax, std::abs(L.v[k][n]));
-      }
-    }
+    const double vd = largest_speed_after_affine_map<double>(model, free_nodes);
     EXPECT_GT(free_nodes, 20u);
-    // The strain's force on one node would give |v| ~ 1e-2 m/s after these steps; measured 1e-15.
-    EXPECT_LT(vmax, 1e-12);
+    const double vf = largest_speed_after_affine_map<float>(model, free_nodes);
+    std::size_t single_free = 0;
+    const double vd1 = largest_speed_after_affine_map<double>(model, single_free, 1);
+    const double vf1 = largest_speed_after_affine_map<float>(model, single_free, 1);
+    std::printf("%s: largest speed %.3g m/s (double), %.3g m/s (float); one level: %.3g, %.3g\n", to_string(model), vd,
+                vf, vd1, vf1);
+    // The strain's force on one node alone gives |v| ~ 1e-2 m/s after these steps. Measured
+    // (double / float): 4e-14 / 3.4e-5 m/s with 3 levels, the rounding of positions and stresses,
+    // as in the fine mesh alone (printed beside).
+    EXPECT_LT(vd, 4e-13);
+    EXPECT_LT(vf, 3e-4);
   }
 }
 
 // A free body, spinning and vibrating: linear and angular momentum stay put over 10^4 fine steps.
+// Returns the largest change of a component over the norm, linear and angular.
+template <class T>
+std::array<double, 2> momentum_change(ForceModel model) {
+  World w(world_def(1, sizeof(T) == 4 ? Precision::float32 : Precision::float64));
+  const BodyId b = w.add_body(split_bar(model));
+  for (int l = 0; l < 3; ++l) {
+    Level<T>& L = w.level<T>(b, l);
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      const double x = double(L.X[0][n]) - kL / 2, y = double(L.X[1][n]) - kW / 2;
+      L.v[0][n] = T(0.3 - 2.0 * y + 0.5 * x);  // translation + spin about z + stretch
+      L.v[1][n] = T(0.1 + 2.0 * x);
+      L.v[2][n] = T(-0.2 + 1.0 * x * x);
+    }
+  }
+  const Momenta m0 = momenta<T>(w, b);
+  for (int i = 0; i < 10000; ++i) w.step();
+  const Momenta m1 = momenta<T>(w, b);
+  const double p = std::hypot(m0.p[0], m0.p[1], m0.p[2]), l = std::hypot(m0.l[0], m0.l[1], m0.l[2]);
+  std::array<double, 2> worst{0, 0};
+  for (int k = 0; k < 3; ++k) {
+    worst[0] = std::max(worst[0], std::abs(m1.p[k] - m0.p[k]) / p);
+    worst[1] = std::max(worst[1], std::abs(m1.l[k] - m0.l[k]) / l);
+  }
+  return worst;
+}
+
 TEST(MultilevelStep, FreeBodyConservesMomentum) {
   for (ForceModel model : {ForceModel::stvk, ForceModel::corotational}) {
     SCOPED_TRACE(to_string(model));
-    World w(world_def());
-    const BodyId b = w.add_body(split_bar(model));
-    for (int l = 0; l < 3; ++l) {
-      Level<double>& L = w.level<double>(b, l);
-      for (std::size_t n = 0; n < L.node_count; ++n) {
-        const double x = L.X[0][n] - kL / 2, y = L.X[1][n] - kW / 2, z = L.X[2][n] - kW / 2;
-        L.v[0][n] = 0.3 - 2.0 * y + 0.5 * x;   // translation + spin about z + stretch
-        L.v[1][n] = 0.1 + 2.0 * x;
-        L.v[2][n] = -0.2 + 1.0 * x * x;
-        (void)z;
-      }
-    }
-    const Momenta m0 = momenta(w, b);
-    for (int i = 0; i < 10000; ++i) w.step();
-    const Momenta m1 = momenta(w, b);
-    const double p = std::hypot(m0.p[0], m0.p[1], m0.p[2]), l = std::hypot(m0.l[0], m0.l[1], m0.l[2]);
-    for (int k = 0; k < 3; ++k) {
-      EXPECT_NEAR(m1.p[k], m0.p[k], 1e-9 * p) << k;
-      EXPECT_NEAR(m1.l[k], m0.l[k], 1e-9 * l) << k;
-    }
+    const auto d = momentum_change<double>(model);
+    const auto f = momentum_change<float>(model);
+    std::printf("%s: relative change over 10^4 steps: linear %.2g, angular %.2g (double); %.2g, %.2g (float)\n",
+                to_string(model), d[0], d[1], f[0], f[1]);
+    // The issue asks 1e-9. Measured: double 8e-16 (linear), 3.4e-15 (angular); float 5e-7, 5.6e-6
+    // (the rounding of 10^4 steps of float sums).
+    EXPECT_LT(d[0], 1e-14);
+    EXPECT_LT(d[1], 3e-14);
+    EXPECT_LT(f[0], 5e-6);
+    EXPECT_LT(f[1], 5e-5);
   }
 }
 
@@ -220,3 +257,63 @@ TEST(MultilevelStep, UndampedEnergyStaysWithinOnePercent) {
 
 }  // namespace
 }  // namespace pliant
+
+#ifdef PLIANT_HAS_CGAL
+namespace pliant {
+namespace {
+
+// The organ's three levels are non-nested (Mesh_3 of simplified surfaces): a body at rest, or
+// turned rigidly, must stay as it is: every ghost reproduces affine motions exactly, those a little
+// outside their coarser tet included.
+TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
+  BodyDef b;
+  b.name = "organ";
+  b.mesh.kind = MeshSourceDef::Kind::implicit;
+  b.mesh.shape = "organ";
+  b.mesh.cell_size = 0.01;
+  b.material.young = 2e4;
+  b.material.poisson = 0.45;
+  b.material.density = 1060;
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.kind = ActiveDef::Kind::regions;
+  ActiveRegionDef fine;
+  fine.level = 2;
+  fine.region.kind = RegionDef::Kind::sphere;
+  fine.region.center = {0.03, 0, 0.04};
+  fine.region.radius = 0.04;
+  b.multiresolution.active.regions = {fine};
+  for (bool turned : {false, true}) {
+    World w(world_def());
+    const BodyId id = w.add_body(b);
+    double mass = 0;
+    const double c = std::cos(2.0), s = std::sin(2.0);  // 115 deg about x
+    for (int l = 0; l < 3; ++l) {
+      Level<double>& L = w.level<double>(id, l);
+      for (std::size_t n = 0; n < L.node_count; ++n) {
+        if (L.state[n] == kNodeFree) EXPECT_GT(L.mass[n], 0.0);
+        mass += L.mass[n];
+        if (turned) {
+          const double y = L.X[1][n], z = L.X[2][n];
+          L.x[1][n] = c * y - s * z;
+          L.x[2][n] = s * y + c * z;
+        }
+      }
+    }
+    for (int i = 0; i < 100; ++i) w.step();
+    double vmax = 0;
+    for (int l = 0; l < 3; ++l) {
+      const Level<double>& L = w.level<double>(id, l);
+      for (std::size_t n = 0; n < L.node_count; ++n)
+        if (L.state[n] == kNodeFree)
+          for (int k = 0; k < 3; ++k) vmax = std::max(vmax, std::abs(L.v[k][n]));
+    }
+    // Measured 4.6e-14 m/s (rest and turned); a ghost off by one part in 1e6 of the organ gives ~1e-3.
+    std::printf("%s: largest speed %.3g m/s\n", turned ? "turned" : "at rest", vmax);
+    EXPECT_LT(vmax, 5e-13) << (turned ? "turned" : "at rest");
+    EXPECT_GT(mass, 0.0);
+  }
+}
+
+}  // namespace
+}  // namespace pliant
+#endif

@@ -124,7 +124,7 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
   for (int l = 0; l < n; ++l) locators.emplace_back(h.meshes[std::size_t(l)]);
   // Non-nested meshes leave slivers between the stepped tets of neighbouring levels; a node of a
   // finer level this close to a coarser stepped tet (a quarter of its own level's mean edge) is
-  // still tied to it, with clamped weights, so that no stepped part floats free of the others.
+  // still tied to it (its weights there extrapolate slightly), so that no stepped part floats free.
   std::vector<double> reach(static_cast<std::size_t>(n));
   for (int l = 0; l < n; ++l) reach[std::size_t(l)] = 0.25 * mean_edge(h.meshes[std::size_t(l)]);
   for (int l = 0; l < n; ++l) {

@@ -191,7 +191,8 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
         for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
           const std::int32_t t = items_[std::size_t(i)];
           if (!mask[std::size_t(t)]) continue;
-          auto w = weights(t, p);
+          const auto exact = weights(t, p);
+          auto w = exact;
           double sum = 0;
           for (double& v : w) sum += (v = std::max(v, 0.0));
           for (double& v : w) v /= sum;
@@ -202,7 +203,7 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
           if (dist < best_d || (dist == best_d && best.tet >= 0 && t < best.tet)) {
             best_d = dist;
             best.tet = t;
-            best.weights = w;
+            best.weights = exact;  // extrapolated, not clamped: still exact for affine motions
             best.outside = dist;
           }
         }

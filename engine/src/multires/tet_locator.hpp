@@ -21,8 +21,10 @@ class TetLocator {
   // Among the tets t with mask[t] != 0, one that contains p (the largest smallest weight, lowest
   // index on ties); tet = -1 if none does.
   TetLink containing(const Vec3d& p, const std::vector<std::uint8_t>& mask) const;
-  // The same, else the nearest masked tet within `radius` (m) of p, with clamped weights
-  // (outside = the distance to the point they give); tet = -1 if there is none.
+  // The same, else the nearest masked tet within `radius` (m) of p (by the distance from p to the
+  // point of its clamped weights, in `outside`), with p's own weights there: slightly negative,
+  // extrapolating the tet's linear field, so that affine motions (rigid ones among them) are
+  // still reproduced exactly. tet = -1 if there is none.
   TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const;
   // Barycentric weights of p in tet t (sum 1, any sign).
   std::array<double, 4> weights(std::int32_t t, const Vec3d& p) const;
