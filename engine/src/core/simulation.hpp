@@ -24,6 +24,11 @@ struct MotionState {
 template <class T>
 struct SimBody {
   BodyDef def;
+  // The body frame: every level stores positions relative to this point (the centre of the rest
+  // bounding box of the body's mesh, m, world frame, kept in double: body_frame_origin), so that
+  // float accuracy is the same wherever the body is. World converts at its edge (node_position,
+  // probes, snapshot, ...).
+  Vec3d origin{0, 0, 0};
   std::vector<Level<T>> levels;   // 0 (coarsest) .. L (finest); one level until multiresolution lands
   std::vector<MotionState> motions;
 };
@@ -35,12 +40,20 @@ struct ProbeState {
   std::array<double, 4> weights{};  // barycentric weights of the tet's corners
 };
 
-// Builds a level from a validated mesh: SoA arrays, rest geometry, masses, incidence, boundary,
-// node states from the body's regions, stable step (measured with exec's threads; the result
-// does not depend on their number). Throws InputError on bad regions or material.
+// The origin of a body frame for a mesh (world frame, m): the centre of its rest bounding box.
+// Every body-frame coordinate is then at most half the body's extent (the best float resolution),
+// and the origin does not depend on the node order (a mean would, by rounding, and the bits of
+// the body-frame rest positions seed the stable-step measurement: a renumbered mesh must get the
+// same step).
+Vec3d body_frame_origin(const TetMesh& mesh);
+
+// Builds a level from a validated mesh (world frame): SoA arrays relative to `origin` (the body
+// frame, SimBody::origin), rest geometry, masses, incidence, boundary, node states from the body's
+// regions (given in the world frame), stable step (measured with exec's threads; the result does
+// not depend on their number). Throws InputError on bad regions or material.
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
-                     Executor& exec);
+Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& def, double courant,
+                     std::vector<MotionState>& motions, Executor& exec);
 
 // ---- the stable step (stable_step.cpp) ----
 // 2 c_p / h_min (rad/s): the highest frequency of a mesh of smallest altitude h_min (m) as the

@@ -231,7 +231,9 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
     b.def = def;
-    b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
+    b.origin = detail::body_frame_origin(mesh);
+    b.levels.push_back(
+        detail::build_level<T>(mesh, b.origin, def, impl_->def.time_step.courant, b.motions, impl_->exec));
     s.bodies.push_back(std::move(b));
     s.scratch.reserve(std::max(s.scratch.capacity(), mesh.tet_count()));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
@@ -251,6 +253,7 @@ int World::add_probe(const ProbeDef& def) {
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
   return impl_->visit([&](auto& s) {
     const auto& L = s.bodies[std::size_t(b)].levels.back();  // the finest level
+    const Vec3d& o = s.bodies[std::size_t(b)].origin;
     // The tet whose smallest barycentric weight is largest contains the point (or is nearest).
     double best = -1e300;
     detail::ProbeState p;
@@ -261,7 +264,8 @@ int World::add_probe(const ProbeDef& def) {
       double c[4][3];
       for (int a = 0; a < 4; ++a)
         for (int k = 0; k < 3; ++k) c[a][k] = double(L.X[k][L.tet[a][t]]);
-      const double d[3] = {def.point[0] - c[0][0], def.point[1] - c[0][1], def.point[2] - c[0][2]};
+      // The point in the body frame, relative to corner 0.
+      const double d[3] = {def.point[0] - o[0] - c[0][0], def.point[1] - o[1] - c[0][1], def.point[2] - o[2] - c[0][2]};
       double w[4];
       w[0] = 1;
       for (int a = 0; a < 3; ++a) {
@@ -384,18 +388,24 @@ template std::array<std::span<const double>, 3> World::velocities<double>(BodyId
 template std::array<std::span<const float>, 3> World::rest_positions<float>(BodyId, int) const;
 template std::array<std::span<const double>, 3> World::rest_positions<double>(BodyId, int) const;
 
+Vec3d World::body_origin(BodyId b) const {
+  return impl_->visit([&](auto& s) { return impl_->body(s, b).origin; });
+}
+
 Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
     if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
-    return Vec3d{double(L.x[0][n]), double(L.x[1][n]), double(L.x[2][n])};
+    const Vec3d& o = impl_->body(s, b).origin;
+    return Vec3d{o[0] + double(L.x[0][n]), o[1] + double(L.x[1][n]), o[2] + double(L.x[2][n])};
   });
 }
 Vec3d World::node_rest_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
     if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
-    return Vec3d{double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
+    const Vec3d& o = impl_->body(s, b).origin;
+    return Vec3d{o[0] + double(L.X[0][n]), o[1] + double(L.X[1][n]), o[2] + double(L.X[2][n])};
   });
 }
 
@@ -424,13 +434,14 @@ const std::string& World::probe_name(int p) const {
 Vec3d World::probe_position(int p) const {
   return impl_->visit([&](auto& s) {
     const auto& pr = s.probes.at(std::size_t(p));
-    const auto& L = s.bodies[std::size_t(pr.body)].levels[std::size_t(pr.level)];
-    Vec3d out{0, 0, 0};
+    const auto& body = s.bodies[std::size_t(pr.body)];
+    const auto& L = body.levels[std::size_t(pr.level)];
+    Vec3d local{0, 0, 0};
     for (int a = 0; a < 4; ++a) {
       const auto n = L.tet[a][std::size_t(pr.tet)];
-      for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * double(L.x[k][n]);
+      for (int k = 0; k < 3; ++k) local[k] += pr.weights[a] * double(L.x[k][n]);
     }
-    return out;
+    return Vec3d{body.origin[0] + local[0], body.origin[1] + local[1], body.origin[2] + local[2]};
   });
 }
 
@@ -495,11 +506,12 @@ World::Snapshot World::snapshot(BodyId b, int l) const {
   Snapshot out;
   impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
+    const Vec3d& o = impl_->body(s, b).origin;
     out.points.resize(3 * L.node_count);
     out.displacement.resize(3 * L.node_count);
     for (std::size_t n = 0; n < L.node_count; ++n)
       for (int k = 0; k < 3; ++k) {
-        out.points[3 * n + k] = double(L.x[k][n]);
+        out.points[3 * n + k] = o[k] + double(L.x[k][n]);  // world frame
         out.displacement[3 * n + k] = double(L.x[k][n]) - double(L.X[k][n]);
       }
     out.tets.resize(L.tet_count);
