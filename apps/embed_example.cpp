@@ -37,14 +37,21 @@ int main() {
     const BodyId id = world.add_body(body, block);
 
     // Zero-copy, read-only views of the body's SoA arrays (one span per axis), valid while the body
-    // exists: they always show the current state, no copy is made per frame.
+    // exists: they always show the current state, no copy is made per frame. They are in the body
+    // frame: relative to world.body_origin(id) (the centre of its rest bounding box, in double), so that float
+    // keeps its resolution wherever the host places a body. World position = origin + span value.
     const auto rest = world.rest_positions<float>(id);
     const auto x = world.positions<float>(id);
-    std::size_t probe = 0;  // the node at the middle of the top face's edge at x = 0.1
+    const Vec3d origin = world.body_origin(id);  // (0.05, 0.05, 0.025) m for this block
+    std::size_t probe = x[0].size();  // the node at the middle of the top face's edge at x = 0.1 (world frame)
     for (std::size_t n = 0; n < x[0].size(); ++n)
-      if (std::fabs(rest[0][n] - 0.1f) < 1e-6f && std::fabs(rest[1][n] - 0.05f) < 1e-6f &&
-          std::fabs(rest[2][n] - 0.05f) < 1e-6f)
+      if (std::fabs(origin[0] + rest[0][n] - 0.1) < 1e-6 && std::fabs(origin[1] + rest[1][n] - 0.05) < 1e-6 &&
+          std::fabs(origin[2] + rest[2][n] - 0.05) < 1e-6)
         probe = n;
+    if (probe == x[0].size()) {
+      std::fprintf(stderr, "no node at (0.1, 0.05, 0.05)\n");
+      return 1;
+    }
 
     // The host's loop: 0.5 s at 60 frames per second; the finger goes down 1 cm over 0.25 s.
     const double frame = 1.0 / 60.0;
@@ -55,7 +62,7 @@ int main() {
       while (world.time() < t_end) world.step();
       if (f % 10 == 0)
         std::printf("t = %.3f s  finger depth %.4f m  edge node z = %.5f m  (%lld steps)\n", world.time(), depth,
-                    x[2][probe], (long long)world.steps());
+                    origin[2] + x[2][probe], (long long)world.steps());
     }
     const Energies e = world.energies();
     std::printf("kinetic %.3g J, elastic %.3g J, state hash %016llx\n", e.kinetic, e.elastic,
@@ -69,7 +76,7 @@ int main() {
       return 1;
     }
     for (std::size_t n = 0; n < x[2].size(); ++n)
-      if (rest[2][n] == 0.0f && x[2][n] != 0.0f) {
+      if (std::fabs(origin[2] + rest[2][n]) < 1e-6 && x[2][n] != rest[2][n]) {  // on the clamped bottom
         std::fprintf(stderr, "clamped node %zu moved\n", n);
         return 1;
       }

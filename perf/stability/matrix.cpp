@@ -31,18 +31,20 @@ double p_wave_speed(double E, double nu) {
   return std::sqrt((lambda + 2 * mu) / kDensity);
 }
 
-// Writes initial positions/velocities of every node of a body: f(node, rest X, x&, v&).
+// Writes initial positions/velocities of every node of a body: f(node, rest X, x&, v&), positions
+// in the world frame (the level's arrays are relative to the body origin).
 template <class F>
 void set_state(World& w, BodyId b, F&& f) {
+  const Vec3d o = w.body_origin(b);
   auto apply = [&](auto& L) {
     using T = std::remove_reference_t<decltype(L.x[0][0])>;
     for (std::size_t n = 0; n < L.node_count; ++n) {
-      const Vec3d X{double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
-      Vec3d x{double(L.x[0][n]), double(L.x[1][n]), double(L.x[2][n])};
+      const Vec3d X{o[0] + double(L.X[0][n]), o[1] + double(L.X[1][n]), o[2] + double(L.X[2][n])};
+      Vec3d x{o[0] + double(L.x[0][n]), o[1] + double(L.x[1][n]), o[2] + double(L.x[2][n])};
       Vec3d v{double(L.v[0][n]), double(L.v[1][n]), double(L.v[2][n])};
       if (!f(n, X, x, v, L.state[n] == kNodeFree)) continue;
       for (int k = 0; k < 3; ++k) {
-        L.x[k][n] = T(x[k]);
+        L.x[k][n] = T(x[k] - o[k]);
         L.v[k][n] = T(v[k]);
       }
     }

@@ -18,11 +18,12 @@ namespace pliant::raster {
 namespace {
 
 // Nodes of a region of the rest configuration, as build_level selects them (inclusive, with a
-// relative tolerance of 1e-9 of the body's diagonal).
+// relative tolerance of 1e-9 of the body's diagonal). Regions are in the world frame, the level's
+// arrays relative to the body origin o.
 template <class T>
-bool in_region(const RegionDef& r, const Level<T>& L, std::size_t n, double tol) {
+bool in_region(const RegionDef& r, const Level<T>& L, const Vec3d& o, std::size_t n, double tol) {
   if (r.kind == RegionDef::Kind::nodes) return std::binary_search(r.nodes.begin(), r.nodes.end(), std::int32_t(n));
-  const double p[3] = {double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
+  const double p[3] = {o[0] + double(L.X[0][n]), o[1] + double(L.X[1][n]), o[2] + double(L.X[2][n])};
   if (r.kind == RegionDef::Kind::box) {
     for (int k = 0; k < 3; ++k)
       if (p[k] < r.min[k] - tol || p[k] > r.max[k] + tol) return false;
@@ -34,7 +35,7 @@ bool in_region(const RegionDef& r, const Level<T>& L, std::size_t n, double tol)
 
 // Surface nodes, triangles renumbered, fixed and driven surface nodes of one level.
 template <class T>
-std::shared_ptr<const SurfaceTopology> make_topology(const Level<T>& L, const BodyDef& def) {
+std::shared_ptr<const SurfaceTopology> make_topology(const Level<T>& L, const Vec3d& origin, const BodyDef& def) {
   auto topo = std::make_shared<SurfaceTopology>();
   topo->name = def.name;
   std::vector<std::int32_t> index(L.node_count, -1);
@@ -68,7 +69,7 @@ std::shared_ptr<const SurfaceTopology> make_topology(const Level<T>& L, const Bo
     const std::size_t n = std::size_t(topo->source_node[s]);
     if (L.state.size() <= n || L.state[n] != kNodeFixed) continue;
     bool moved = false;
-    for (const auto& r : driven) moved = moved || in_region(r, L, n, tol);
+    for (const auto& r : driven) moved = moved || in_region(r, L, origin, n, tol);
     (moved ? topo->driven : topo->fixed).push_back(std::int32_t(s));
   }
   return topo;
@@ -79,13 +80,14 @@ SurfaceBody capture_body(const World& world, BodyId b, Field field, std::shared_
   const int level = world.level_count(b) - 1;  // the finest level
   const Level<T>& L = world.level<T>(b, level);
   if (!cached || (!cached->source_node.empty() && std::size_t(cached->source_node.back()) >= L.node_count))
-    cached = make_topology(L, world.body_def(b));
+    cached = make_topology(L, world.body_origin(b), world.body_def(b));
   SurfaceBody body;
   body.topology = cached;
   const auto& src = cached->source_node;
+  const Vec3d o = world.body_origin(b);  // the level's arrays are relative to it; pictures are in the world frame
   body.points.resize(3 * src.size());
   for (std::size_t s = 0; s < src.size(); ++s)
-    for (int k = 0; k < 3; ++k) body.points[3 * s + k] = float(L.x[k][std::size_t(src[s])]);
+    for (int k = 0; k < 3; ++k) body.points[3 * s + k] = float(o[k] + double(L.x[k][std::size_t(src[s])]));
   if (field == Field::displacement) {
     body.values.resize(src.size());
     for (std::size_t s = 0; s < src.size(); ++s) {

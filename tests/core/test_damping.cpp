@@ -190,7 +190,7 @@ std::vector<double> axial_energies(const std::string& model, const std::string& 
   w.add_body(scene.bodies[0]);
   Level<double>& L = w.level<double>(0);
   for (std::size_t n = 0; n < L.node_count; ++n)
-    if (L.state[n] == kNodeFree) L.v[0][n] = 0.05 * std::sin(kPi * L.X[0][n] / 0.8);
+    if (L.state[n] == kNodeFree) L.v[0][n] = 0.05 * std::sin(kPi * w.node_rest_position(0, n)[0] / 0.8);
   std::vector<double> out{w.energies().total()};
   const int steps = int(std::lround(duration / dt));
   for (int i = 1; i <= steps; ++i) {

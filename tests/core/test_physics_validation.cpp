@@ -138,13 +138,15 @@ WaveResult bar_wave_speed(int cells_across, double nu, ForceModel model, int tet
   const BodyId b =
       world.add_body(def, make_box_mesh({0, 0, 0}, {L, w, w}, {nx, cells_across, cells_across}, tets_per_cell));
   Level<double>& lv = world.level<double>(b);
+  const Vec3d o = world.body_origin(b);  // the level's arrays are relative to it
   std::vector<std::size_t> tip;
   for (std::size_t n = 0; n < lv.node_count; ++n) {
-    if (lv.X[0][n] <= 0) continue;  // the clamp stays at rest
-    lv.x[0][n] = lv.X[0][n] * (1 + eps);
-    lv.x[1][n] = lv.X[1][n] - nu * eps * (lv.X[1][n] - 0.5 * w);
-    lv.x[2][n] = lv.X[2][n] - nu * eps * (lv.X[2][n] - 0.5 * w);
-    if (lv.X[0][n] >= L) tip.push_back(n);
+    const double X[3] = {o[0] + lv.X[0][n], o[1] + lv.X[1][n], o[2] + lv.X[2][n]};  // world frame
+    if (X[0] <= 0) continue;  // the clamp stays at rest
+    lv.x[0][n] = lv.X[0][n] + eps * X[0];
+    lv.x[1][n] = lv.X[1][n] - nu * eps * (X[1] - 0.5 * w);
+    lv.x[2][n] = lv.X[2][n] - nu * eps * (X[2] - 0.5 * w);
+    if (X[0] >= L) tip.push_back(n);
   }
   WaveResult r;
   r.reference = std::sqrt(E / rho);
@@ -185,11 +187,13 @@ WaveResult confined_wave_speed(int cells_through, double nu, int tets_per_cell =
   const BodyId b =
       world.add_body(def, make_box_mesh({0, 0, 0}, {L, W, W}, {cells_through, across, across}, tets_per_cell));
   Level<double>& lv = world.level<double>(b);
+  const Vec3d o = world.body_origin(b);  // the level's arrays are relative to it
   std::size_t centre = 0;
   double best = 1e300;
   for (std::size_t n = 0; n < lv.node_count; ++n) {
-    lv.x[0][n] = lv.X[0][n] * (1 + eps);
-    const double d = std::hypot(lv.X[0][n] - L, lv.X[1][n] - 0.5 * W, lv.X[2][n] - 0.5 * W);
+    const double X[3] = {o[0] + lv.X[0][n], o[1] + lv.X[1][n], o[2] + lv.X[2][n]};  // world frame
+    lv.x[0][n] = lv.X[0][n] + eps * X[0];
+    const double d = std::hypot(X[0] - L, X[1] - 0.5 * W, X[2] - 0.5 * W);
     if (d < best) best = d, centre = n;
   }
   const double lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
@@ -255,7 +259,7 @@ CantileverResult cantilever(ForceModel model, std::array<int, 3> cells, int tets
   const Level<double>& lv = world.level<double>(b);
   std::vector<std::size_t> tip;
   for (std::size_t n = 0; n < lv.node_count; ++n)
-    if (lv.X[0][n] >= L) tip.push_back(n);
+    if (world.node_rest_position(b, n)[0] >= L) tip.push_back(n);
   std::vector<double> t{0}, z{0};
   const double duration = periods / r.frequency_reference;
   while (world.time() < duration) {
@@ -322,11 +326,12 @@ CubeEnergy cube_energy_deviation(ForceModel model, int steps, double courant, do
   World world(world_def(courant));
   const BodyId b = world.add_body(def, make_box_mesh({0, 0, 0}, {0.1, 0.1, 0.1}, {6, 6, 6}, 6));
   Level<double>& lv = world.level<double>(b);
-  for (std::size_t n = 0; n < lv.node_count; ++n) {
-    const double X = lv.X[0][n] / 0.1, Y = lv.X[1][n] / 0.1, Z = lv.X[2][n] / 0.1;
-    lv.x[0][n] = 0.1 * (X + amplitude * (0.10 * X * X + 0.05 * Y));
-    lv.x[1][n] = 0.1 * (Y + amplitude * 0.05 * std::sin(kPi * Z));
-    lv.x[2][n] = 0.1 * (Z - amplitude * 0.05 * X * Y);
+  for (std::size_t n = 0; n < lv.node_count; ++n) {  // displacements of the world-frame rest position
+    const Vec3d P = world.node_rest_position(b, n);
+    const double X = P[0] / 0.1, Y = P[1] / 0.1, Z = P[2] / 0.1;
+    lv.x[0][n] = lv.X[0][n] + 0.1 * amplitude * (0.10 * X * X + 0.05 * Y);
+    lv.x[1][n] = lv.X[1][n] + 0.1 * amplitude * 0.05 * std::sin(kPi * Z);
+    lv.x[2][n] = lv.X[2][n] - 0.1 * amplitude * 0.05 * X * Y;
   }
   const Energies e0 = world.energies();
   const double initial = e0.total();
@@ -445,15 +450,19 @@ PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) 
   World world(world_def(kCourant));
   const BodyId b = world.add_body(def, make_box_mesh(lo, hi, {4, 3, 5}, tets_per_cell));
   Level<double>& lv = world.level<double>(b);
-  for (std::size_t n = 0; n < lv.node_count; ++n)
-    for (int i = 0; i < 3; ++i)
-      lv.x[i][n] = F[i][0] * lv.X[0][n] + F[i][1] * lv.X[1][n] + F[i][2] * lv.X[2][n] + c[i];
+  // x = F X + c in the world frame; the level's arrays are relative to the body origin o.
+  const Vec3d o = world.body_origin(b);
+  for (std::size_t n = 0; n < lv.node_count; ++n) {
+    const Vec3d X = world.node_rest_position(b, n);
+    for (int i = 0; i < 3; ++i) lv.x[i][n] = F[i][0] * X[0] + F[i][1] * X[1] + F[i][2] * X[2] + c[i] - o[i];
+  }
   world.step();
   PatchResult r;
   r.tets = lv.tet_count;
   for (std::size_t n = 0; n < lv.node_count; ++n) {
     bool interior = true;
-    for (int k = 0; k < 3; ++k) interior &= lv.X[k][n] > lo[k] && lv.X[k][n] < hi[k];
+    const Vec3d X = world.node_rest_position(b, n);
+    for (int k = 0; k < 3; ++k) interior &= X[k] > lo[k] && X[k] < hi[k];
     const double f = std::sqrt(lv.f[0][n] * lv.f[0][n] + lv.f[1][n] * lv.f[1][n] + lv.f[2][n] * lv.f[2][n]);
     if (interior) {
       r.interior_force = std::max(r.interior_force, f);

@@ -77,7 +77,8 @@ TEST(RenumberedFileMesh, NodeRegionsSelectTheSameMaterialPoints) {
   const auto& L = w.level<double>(0);
   std::size_t fixed_count = 0, loaded_count = 0;
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    const bool at_root = L.X[0][n] < 1e-9, at_tip = L.X[0][n] > 0.4 - 1e-9;
+    const double X = w.node_rest_position(0, n)[0];  // world frame
+    const bool at_root = X < 1e-9, at_tip = X > 0.4 - 1e-9;
     EXPECT_EQ(L.state[n] == kNodeFixed, at_root) << "node " << n;
     if (L.state[n] == kNodeFixed) ++fixed_count;
     if (at_tip) {

@@ -257,7 +257,8 @@ TEST(PrescribedMotion, NodesFollowTheKeyframesExactly) {
   const double s = w.time();
   int moved = 0;
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    const double dx = L.X[0][n] - 0.4, dy = L.X[1][n] - 0.05, dz = L.X[2][n] - 0.1;
+    const Vec3d X = w.node_rest_position(0, n);  // world frame (the level's arrays are in the body frame)
+    const double dx = X[0] - 0.4, dy = X[1] - 0.05, dz = X[2] - 0.1;
     if (std::sqrt(dx * dx + dy * dy + dz * dz) > 0.03) continue;
     ++moved;
     EXPECT_NEAR(L.x[0][n] - L.X[0][n], 0.01 * s, 1e-12);
@@ -299,7 +300,8 @@ TEST(PrescribedMotion, NodesFollowSeveralKeyframesAndHoldAfterTheLast) {
   const auto& L = w.level<double>(0);
   std::vector<std::size_t> driven;
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    const double dx = L.X[0][n] - 0.4, dy = L.X[1][n] - 0.05, dz = L.X[2][n] - 0.1;
+    const Vec3d X = w.node_rest_position(0, n);  // world frame (the level's arrays are in the body frame)
+    const double dx = X[0] - 0.4, dy = X[1] - 0.05, dz = X[2] - 0.1;
     if (std::sqrt(dx * dx + dy * dy + dz * dz) <= 0.03) driven.push_back(n);
   }
   ASSERT_FALSE(driven.empty());
@@ -345,7 +347,7 @@ TEST(PrescribedMotion, HostCanDriveARegion) {
   const auto& L = w.level<double>(0);
   bool found = false;
   for (std::size_t n = 0; n < L.node_count; ++n)
-    if (L.state[n] == kNodeFixed && L.X[0][n] > 0.39) {
+    if (L.state[n] == kNodeFixed && w.node_rest_position(0, n)[0] > 0.39) {
       EXPECT_NEAR(L.x[2][n] - L.X[2][n], 0.005, 1e-12);
       found = true;
     }
@@ -373,7 +375,7 @@ TEST(Regions, FixedNodesDoNotMoveUnderGravity) {
   for (int i = 0; i < 50; ++i) w.step();
   const auto& L = w.level<double>(0);
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    if (L.X[0][n] <= 1e-6) {
+    if (w.node_rest_position(0, n)[0] <= 1e-6) {
       for (int k = 0; k < 3; ++k) EXPECT_EQ(L.x[k][n], L.X[k][n]);
     }
   }
@@ -389,9 +391,10 @@ TEST(Probes, FollowTheMaterialPoint) {
   const auto& L = w.level<double>(0);
   std::size_t corner = 0;
   for (std::size_t n = 0; n < L.node_count; ++n)
-    if (L.X[0][n] > 0.4 - 1e-9 && L.X[1][n] < 1e-9 && L.X[2][n] < 1e-9) corner = n;
-  const Vec3d q = w.probe_position(p);
-  for (int k = 0; k < 3; ++k) EXPECT_NEAR(q[k], L.x[k][corner], 1e-12);
+    if (const Vec3d X = w.node_rest_position(0, n); X[0] > 0.4 - 1e-9 && X[1] < 1e-9 && X[2] < 1e-9) corner = n;
+  const Vec3d q = w.probe_position(p), x = w.node_position(0, corner);
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(q[k], x[k], 1e-12);
+  EXPECT_GT(std::fabs(x[2]), 1e-6);  // the corner moved
   EXPECT_THROW(w.add_probe({"far", "beam", {3, 3, 3}}), InputError);
   EXPECT_THROW(w.add_probe({"nobody", "ghost", {0, 0, 0}}), InputError);
 }
@@ -411,7 +414,8 @@ TEST(Probes, InterpolateExactlyInsideATetUnderAnAffineMap) {
   // Not a node: the nearest node is a few mm away.
   double nearest = 1e300;
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    const double d[3] = {L.X[0][n] - kInsidePoint[0], L.X[1][n] - kInsidePoint[1], L.X[2][n] - kInsidePoint[2]};
+    const Vec3d X = w.node_rest_position(0, n);
+    const double d[3] = {X[0] - kInsidePoint[0], X[1] - kInsidePoint[1], X[2] - kInsidePoint[2]};
     nearest = std::min(nearest, std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]));
   }
   EXPECT_GT(nearest, 1e-3);
@@ -420,9 +424,10 @@ TEST(Probes, InterpolateExactlyInsideATetUnderAnAffineMap) {
   // A rotation, a shear, a stretch and a translation.
   const double A[3][3] = {{1.1, 0.2, -0.05}, {-0.3, 0.9, 0.15}, {0.07, -0.12, 1.25}};
   const double t[3] = {0.5, -0.25, 2.0};  // m
+  const Vec3d o = w.body_origin(0);  // x = A X + t in the world frame; the level's arrays are relative to o
   for (std::size_t n = 0; n < L.node_count; ++n) {
-    const double X[3] = {L.X[0][n], L.X[1][n], L.X[2][n]};
-    for (int i = 0; i < 3; ++i) L.x[i][n] = A[i][0] * X[0] + A[i][1] * X[1] + A[i][2] * X[2] + t[i];
+    const Vec3d X = w.node_rest_position(0, n);
+    for (int i = 0; i < 3; ++i) L.x[i][n] = A[i][0] * X[0] + A[i][1] * X[1] + A[i][2] * X[2] + t[i] - o[i];
   }
   const Vec3d q = w.probe_position(p);
   for (int i = 0; i < 3; ++i) {
@@ -547,8 +552,8 @@ TEST(Api, PositionSpansAreZeroCopyViewsOfTheLevel) {
         EXPECT_EQ(reinterpret_cast<std::uintptr_t>(x[k].data()) % 64, 0u);  // cache-line aligned
       }
       for (int i = 0; i < 5; ++i) w.step();
-      const Vec3d q = w.node_position(b, 7);
-      EXPECT_EQ(double(x[2][7]), q[2]);  // still the current state after steps
+      const Vec3d q = w.node_position(b, 7), o = w.body_origin(b);
+      EXPECT_EQ(o[2] + double(x[2][7]), q[2]);  // still the current state after steps (body frame + origin)
       EXPECT_EQ(reinterpret_cast<std::uintptr_t>(L.tet[0].data()) % 64, 0u);
       EXPECT_EQ(reinterpret_cast<std::uintptr_t>(L.state.data()) % 64, 0u);
     };

@@ -434,6 +434,25 @@ TEST(Recorder, CapturedFrameMarksFixedDrivenAndProbes) {
   EXPECT_EQ(max_value(f), 0.0);  // rest state
 }
 
+// The engine keeps a body's positions relative to its origin (World::body_origin); a picture is
+// in the world frame: captured points are the world positions, and the fixed and driven marks
+// are the nodes the scene's world-frame regions select (the 3 x 3 nodes of each end face).
+TEST(Recorder, CapturedPointsAndMarksAreInTheWorldFrame) {
+  World world = make_world(small_scene());
+  world.step();  // away from rest
+  const Frame f = capture(world, Field::displacement);
+  ASSERT_EQ(f.bodies.size(), 1u);
+  const auto& topo = *f.bodies[0].topology;
+  EXPECT_EQ(topo.fixed.size(), 9u);
+  EXPECT_EQ(topo.driven.size(), 9u);
+  for (std::int32_t s : topo.fixed) EXPECT_LT(world.node_rest_position(0, std::size_t(topo.source_node[s]))[0], 1e-9);
+  for (std::int32_t s : topo.driven) EXPECT_GT(world.node_rest_position(0, std::size_t(topo.source_node[s]))[0], 0.2 - 1e-9);
+  for (std::size_t s = 0; s < topo.source_node.size(); ++s) {
+    const Vec3d x = world.node_position(0, std::size_t(topo.source_node[s]));
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(f.bodies[0].points[3 * s + k], float(x[k])) << "surface node " << s;
+  }
+}
+
 TEST(Recorder, SheetGetsItsOwnFramesWhenNumberedFramesAreFew) {
   const SceneDef scene = small_scene();
   RecorderOptions ro;

@@ -16,8 +16,8 @@ template <class T>
 struct Level {
   // ---- nodes ----
   std::size_t node_count = 0;
-  AlignedVector<T> X[3];        // rest positions (m)
-  AlignedVector<T> x[3];        // positions (m)
+  AlignedVector<T> X[3];        // rest positions (m), body frame: relative to the body origin (World::body_origin)
+  AlignedVector<T> x[3];        // positions (m), body frame
   AlignedVector<T> v[3];        // velocities (m/s)
   AlignedVector<T> f[3];        // total internal + external force of the last step (N); on fixed nodes, the reaction
   AlignedVector<T> inv_mass;    // 1/kg, 0 on fixed nodes

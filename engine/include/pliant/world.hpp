@@ -2,6 +2,15 @@
 // Precision (float or double) is chosen at creation; the arrays of every level are reachable
 // without copies through level<T>(). Errors come back as InputError / DivergenceError here, at
 // the API edge; nothing below this header throws during a step.
+//
+// Two frames. Everything a host gives (meshes, regions, probe points, prescribed offsets) and
+// everything the accessors below return in Vec3d (node_position, node_rest_position,
+// probe_position, snapshot) is in the WORLD frame. The arrays of a level (level<T>(), positions(),
+// rest_positions()) are in the BODY frame: relative to body_origin(body), the centre of the
+// body's rest bounding box, kept in double. That way a float body placed 1 km from the world origin keeps the
+// resolution it has at the origin (absolute float coordinates there would be only 6e-5 m apart).
+// World position of node n = body_origin(body) + (x[0][n], x[1][n], x[2][n]). Velocities, forces,
+// displacements (x - X) and offsets are the same in both frames.
 #pragma once
 #include <cstdint>
 #include <array>
@@ -101,22 +110,30 @@ class World {
   // unused vertices dropped (all zero for a clean mesh).
   const MeshLoadReport& mesh_load_report(BodyId body) const;
 
-  // Zero-copy access to a level's arrays. T must match the world's precision (else InputError).
-  // Positions and velocities may be written between steps (initial conditions); sizes must not change.
+  // The world position (m) of the body frame's origin: the centre of the rest bounding box of the
+  // body's mesh, in double. Positions in the level arrays are relative to it (see the top of this
+  // file). It does not change while the body moves.
+  Vec3d body_origin(BodyId body) const;
+
+  // Zero-copy access to a level's arrays, in the BODY frame (positions relative to
+  // body_origin(body)). T must match the world's precision (else InputError). Positions and
+  // velocities may be written between steps (initial conditions, body frame); sizes must not change.
   template <class T>
   Level<T>& level(BodyId body, int level = 0);
   template <class T>
   const Level<T>& level(BodyId body, int level = 0) const;
 
   // The same, read-only, as spans over the SoA arrays (no copy; valid until the body is destroyed):
-  // positions<float>(body)[2][n] is node n's z (m). T must match the world's precision.
+  // positions<float>(body)[2][n] is node n's z (m) in the BODY frame, i.e. its world z is
+  // body_origin(body)[2] + positions<float>(body)[2][n]. T must match the world's precision.
   template <class T>
-  std::array<std::span<const T>, 3> positions(BodyId body, int level = 0) const;   // m
+  std::array<std::span<const T>, 3> positions(BodyId body, int level = 0) const;   // m, body frame
   template <class T>
   std::array<std::span<const T>, 3> velocities(BodyId body, int level = 0) const;  // m/s
   template <class T>
-  std::array<std::span<const T>, 3> rest_positions(BodyId body, int level = 0) const;  // m
+  std::array<std::span<const T>, 3> rest_positions(BodyId body, int level = 0) const;  // m, body frame
 
+  // World frame (body_origin + the level's arrays, in double).
   Vec3d node_position(BodyId body, std::size_t node, int level = 0) const;   // m
   Vec3d node_rest_position(BodyId body, std::size_t node, int level = 0) const;
 
@@ -126,15 +143,15 @@ class World {
 
   std::size_t probe_count() const;
   const std::string& probe_name(int probe) const;
-  Vec3d probe_position(int probe) const;  // m, interpolated in the probe's tet
+  Vec3d probe_position(int probe) const;  // m, world frame, interpolated in the probe's tet
 
   Energies energies() const;  // see Energies: kinetic is time-centred
   double max_displacement() const;  // m, largest |x - X| over all nodes
-  // 64-bit FNV-1a hash of the bits of every position and velocity, in body and level order.
+  // 64-bit FNV-1a hash of the bits of every position (body frame) and velocity, in body and level order.
   std::uint64_t state_hash() const;
 
-  // For result files: current positions (interleaved), tets, displacement and per-tet Cauchy
-  // stress (9 components, Pa) and von Mises stress (Pa) of one body's level.
+  // For result files: current positions (interleaved, world frame), tets, displacement and per-tet
+  // Cauchy stress (9 components, Pa) and von Mises stress (Pa) of one body's level.
   struct Snapshot {
     std::vector<double> points, displacement, stress, von_mises;
     std::vector<Tet> tets;

@@ -110,21 +110,38 @@ Vec3d MotionState::offset_at(double time) const {
           a.offset[2] + s * (b.offset[2] - a.offset[2])};
 }
 
+Vec3d body_frame_origin(const TetMesh& mesh) {
+  const std::size_t nn = mesh.node_count();
+  if (nn == 0) return {0, 0, 0};
+  Vec3d lo{mesh.points[0], mesh.points[1], mesh.points[2]}, hi = lo;
+  for (std::size_t i = 1; i < nn; ++i)
+    for (int k = 0; k < 3; ++k) {
+      lo[k] = std::min(lo[k], mesh.points[3 * i + k]);
+      hi[k] = std::max(hi[k], mesh.points[3 * i + k]);
+    }
+  return {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
+}
+
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
-                     Executor& exec, bool regions_may_be_empty) {
+Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& def, double courant,
+                     std::vector<MotionState>& motions, Executor& exec, bool regions_may_be_empty) {
   const bool lax = regions_may_be_empty;
   check_material(def.material, def.name);
   Level<T> L;
   const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
   L.node_count = nn;
   L.tet_count = nt;
+  // Positions in the body frame (relative to `origin`, in double, then rounded to T): a float
+  // body 1 km from the world origin keeps the resolution it has at the origin.
+  std::vector<double> local(3 * nn);
+  for (std::size_t i = 0; i < nn; ++i)
+    for (int k = 0; k < 3; ++k) local[3 * i + k] = mesh.points[3 * i + k] - origin[k];
   for (int k = 0; k < 3; ++k) {
     L.X[k].resize(nn);
     L.x[k].resize(nn);
     L.v[k].assign(nn, T(0));
     L.f[k].assign(nn, T(0));
-    for (std::size_t i = 0; i < nn; ++i) L.X[k][i] = L.x[k][i] = T(mesh.points[3 * i + k]);
+    for (std::size_t i = 0; i < nn; ++i) L.X[k][i] = L.x[k][i] = T(local[3 * i + k]);
   }
   for (int a = 0; a < 4; ++a) L.tet[a].resize(nt);
   L.volume.resize(nt);
@@ -137,7 +154,7 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, st
     double p[4][3];
     for (int a = 0; a < 4; ++a) {
       L.tet[a][t] = tt[a];
-      for (int k = 0; k < 3; ++k) p[a][k] = mesh.points[3 * tt[a] + k];
+      for (int k = 0; k < 3; ++k) p[a][k] = local[3 * tt[a] + k];
     }
     double volume, grad[9];
     if (!tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, grad))
@@ -221,9 +238,9 @@ Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, st
   return L;
 }
 
-template Level<float> build_level<float>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
-                                         Executor&, bool);
-template Level<double> build_level<double>(const TetMesh&, const BodyDef&, double, std::vector<MotionState>&,
-                                           Executor&, bool);
+template Level<float> build_level<float>(const TetMesh&, const Vec3d&, const BodyDef&, double,
+                                         std::vector<MotionState>&, Executor&, bool);
+template Level<double> build_level<double>(const TetMesh&, const Vec3d&, const BodyDef&, double,
+                                           std::vector<MotionState>&, Executor&, bool);
 
 }  // namespace pliant::detail

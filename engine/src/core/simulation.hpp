@@ -29,6 +29,11 @@ struct MotionState {
 template <class T>
 struct SimBody {
   BodyDef def;
+  // The body frame: every level stores positions relative to this point (the centre of the rest
+  // bounding box of the body's mesh, m, world frame, kept in double: body_frame_origin), so that
+  // float accuracy is the same wherever the body is. World converts at its edge (node_position,
+  // probes, snapshot, ...).
+  Vec3d origin{0, 0, 0};
   std::vector<Level<T>> levels;   // 0 (coarsest) .. L (finest); one level until multiresolution lands
   std::vector<MotionState> motions;
 };
@@ -40,24 +45,33 @@ struct ProbeState {
   std::array<double, 4> weights{};  // barycentric weights of the tet's corners
 };
 
-// Builds a level from a validated mesh: SoA arrays, rest geometry, masses, incidence, boundary,
-// node states from the body's regions, stable step (measured with exec's threads; the result
-// does not depend on their number). Throws InputError on bad regions or material.
+// The origin of a body frame for a mesh (world frame, m): the centre of its rest bounding box.
+// Every body-frame coordinate is then at most half the body's extent (the best float resolution),
+// and the origin does not depend on the node order (a mean would, by rounding, and the bits of
+// the body-frame rest positions seed the stable-step measurement: a renumbered mesh must get the
+// same step).
+Vec3d body_frame_origin(const TetMesh& mesh);
+
+// Builds a level from a validated mesh (world frame): SoA arrays relative to `origin` (the body
+// frame, SimBody::origin), rest geometry, masses, incidence, boundary, node states from the body's
+// regions (given in the world frame), stable step (measured with exec's threads; the result does
+// not depend on their number). Throws InputError on bad regions or material.
 // regions_may_be_empty: a region that selects no node of this mesh is not an error (the coarser
 // levels of a multiresolution body; the body checks that some level has the nodes).
 template <class T>
-Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
-                     Executor& exec, bool regions_may_be_empty = false);
+Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& def, double courant,
+                     std::vector<MotionState>& motions, Executor& exec, bool regions_may_be_empty = false);
 
 // The nodes of `mesh` in region r (rest positions, tolerance 1e-9 of the mesh size; node lists
 // checked against the mesh). Throws InputError naming `what` if none is selected, unless may_be_empty.
 std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, const std::string& what,
                                        const std::string& body, bool may_be_empty = false);
 
-// A body of several levels (docs/multiresolution.md) from its hierarchy: each level built as a
-// whole (its stable step measured as for a single level), then who is active where applied
-// (activation.hpp): stepped tets, node roles, ghosts and their sources, receivers, masses from the
-// stepped tets with each ghost's mass moved to its sources, regions on active nodes.
+// A body of several levels (docs/multiresolution.md) from its hierarchy (world frame; every level
+// in the body frame of the finest mesh): each level built as a whole (its stable step measured as
+// for a single level), then who is active where applied (activation.hpp): stepped tets, node roles,
+// ghosts and their sources, receivers, masses from the stepped tets with each ghost's mass moved to
+// its sources, regions on active nodes.
 template <class T>
 SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double courant, Executor& exec);
 

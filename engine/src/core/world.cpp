@@ -271,7 +271,9 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
       b = detail::build_multilevel_body<T>(h, def, impl_->def.time_step.courant, impl_->exec);
     } else {
       b.def = def;
-      b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
+      b.origin = detail::body_frame_origin(mesh);
+      b.levels.push_back(
+          detail::build_level<T>(mesh, b.origin, def, impl_->def.time_step.courant, b.motions, impl_->exec));
     }
     for (const auto& L : b.levels) tets += L.tet_count;
     s.bodies.push_back(std::move(b));
@@ -310,12 +312,14 @@ int World::add_probe(const ProbeDef& def) {
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
   return impl_->visit([&](auto& s) {
     const auto& body = s.bodies[std::size_t(b)];
+    // The point in the body frame.
+    const Vec3d point{def.point[0] - body.origin[0], def.point[1] - body.origin[1], def.point[2] - body.origin[2]};
     constexpr double kInside = -1e-6;  // barycentric: a point on a face counts as inside
     // The point must lie in the body's mesh as given (the finest level, all of it).
     const auto& fine = body.levels.back();
     double inside = -1e300;
     double w[4];
-    for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, tet_weights(fine, t, def.point, w));
+    for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, tet_weights(fine, t, point, w));
     if (inside < kInside)
       throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
                                    def.point[1], def.point[2], def.body));
@@ -330,7 +334,7 @@ int World::add_probe(const ProbeDef& def) {
       const auto& L = body.levels[std::size_t(l)];
       for (const Range& run : L.stepped_runs)
         for (std::size_t t = run.begin; t < run.end; ++t) {
-          const double m = tet_weights(L, t, def.point, w);
+          const double m = tet_weights(L, t, point, w);
           if (m > best) {
             best = m;
             p.level = l;
@@ -475,18 +479,24 @@ template std::array<std::span<const double>, 3> World::velocities<double>(BodyId
 template std::array<std::span<const float>, 3> World::rest_positions<float>(BodyId, int) const;
 template std::array<std::span<const double>, 3> World::rest_positions<double>(BodyId, int) const;
 
+Vec3d World::body_origin(BodyId b) const {
+  return impl_->visit([&](auto& s) { return impl_->body(s, b).origin; });
+}
+
 Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
     if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
-    return Vec3d{double(L.x[0][n]), double(L.x[1][n]), double(L.x[2][n])};
+    const Vec3d& o = impl_->body(s, b).origin;
+    return Vec3d{o[0] + double(L.x[0][n]), o[1] + double(L.x[1][n]), o[2] + double(L.x[2][n])};
   });
 }
 Vec3d World::node_rest_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
     if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
-    return Vec3d{double(L.X[0][n]), double(L.X[1][n]), double(L.X[2][n])};
+    const Vec3d& o = impl_->body(s, b).origin;
+    return Vec3d{o[0] + double(L.X[0][n]), o[1] + double(L.X[1][n]), o[2] + double(L.X[2][n])};
   });
 }
 
@@ -522,13 +532,13 @@ Vec3d World::probe_position(int p) const {
     const auto& pr = s.probes.at(std::size_t(p));
     const auto& body = s.bodies[std::size_t(pr.body)];
     const auto& L = body.levels[std::size_t(pr.level)];
-    Vec3d out{0, 0, 0};
+    Vec3d local{0, 0, 0};
     for (int a = 0; a < 4; ++a) {
       const auto n = L.tet[a][std::size_t(pr.tet)];
       const Vec3d x = detail::node_now(body, L, std::size_t(n));
-      for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * x[k];
+      for (int k = 0; k < 3; ++k) local[k] += pr.weights[a] * x[k];
     }
-    return out;
+    return Vec3d{body.origin[0] + local[0], body.origin[1] + local[1], body.origin[2] + local[2]};
   });
 }
 
@@ -593,11 +603,12 @@ World::Snapshot World::snapshot(BodyId b, int l) const {
   Snapshot out;
   impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
+    const Vec3d& o = impl_->body(s, b).origin;
     out.points.resize(3 * L.node_count);
     out.displacement.resize(3 * L.node_count);
     for (std::size_t n = 0; n < L.node_count; ++n)
       for (int k = 0; k < 3; ++k) {
-        out.points[3 * n + k] = double(L.x[k][n]);
+        out.points[3 * n + k] = o[k] + double(L.x[k][n]);  // world frame
         out.displacement[3 * n + k] = double(L.x[k][n]) - double(L.X[k][n]);
       }
     out.tets.resize(L.tet_count);

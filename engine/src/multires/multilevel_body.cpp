@@ -39,10 +39,12 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
     throw InputError(fmt::format("body '{}': {} levels, at most {}", def.name, n, kMaxLevels));
   SimBody<T> body;
   body.def = def;
+  body.origin = body_frame_origin(h.meshes.back());  // one body frame for every level: the finest mesh's
   // Each level whole, as a single-level body would be (its stable step among others).
   for (std::size_t l = 0; l < n; ++l) {
     std::vector<MotionState> ignored;
-    body.levels.push_back(build_level<T>(h.meshes[l], def, courant, ignored, exec, /*regions_may_be_empty=*/true));
+    body.levels.push_back(
+        build_level<T>(h.meshes[l], body.origin, def, courant, ignored, exec, /*regions_may_be_empty=*/true));
   }
   const Activation act = activate(h, def.multiresolution.active);
 
