@@ -76,7 +76,11 @@ std::shared_ptr<const SurfaceTopology> make_topology(const Level<T>& L, const Ve
 }
 
 template <class T>
+SurfaceBody capture_levels(const World& world, BodyId b, Field field);
+
+template <class T>
 SurfaceBody capture_body(const World& world, BodyId b, Field field, std::shared_ptr<const SurfaceTopology>& cached) {
+  if (world.level_count(b) > 1) return capture_levels<T>(world, b, field);
   const int level = world.level_count(b) - 1;  // the finest level
   const Level<T>& L = world.level<T>(b, level);
   if (!cached || (!cached->source_node.empty() && std::size_t(cached->source_node.back()) >= L.node_count))
@@ -88,7 +92,9 @@ SurfaceBody capture_body(const World& world, BodyId b, Field field, std::shared_
   body.points.resize(3 * src.size());
   for (std::size_t s = 0; s < src.size(); ++s)
     for (int k = 0; k < 3; ++k) body.points[3 * s + k] = float(o[k] + double(L.x[k][std::size_t(src[s])]));
-  if (field == Field::displacement) {
+  if (field == Field::level) {
+    body.values.assign(src.size(), float(level));
+  } else if (field == Field::displacement) {
     body.values.resize(src.size());
     for (std::size_t s = 0; s < src.size(); ++s) {
       const std::size_t n = std::size_t(src[s]);
@@ -119,25 +125,92 @@ SurfaceBody capture_body(const World& world, BodyId b, Field field, std::shared_
   return body;
 }
 
+// A body of several levels (multiresolution): the boundary of the part each level steps, from the
+// level's snapshot (world frame, ghosts where their sources are now), coloured by the field or by
+// the level itself. The stepped parts are fixed during a run, but cheap to redo: no cache.
+template <class T>
+SurfaceBody capture_levels(const World& world, BodyId b, Field field) {
+  auto topo = std::make_shared<SurfaceTopology>();
+  topo->name = world.body_def(b).name;
+  SurfaceBody body;
+  const Vec3d origin = world.body_origin(b);
+  const double tol = 1e-9;  // m: regions select nodes on their faces (build_level uses 1e-9 of the size)
+  for (int l = 0; l < world.level_count(b); ++l) {
+    const World::Snapshot snap = world.snapshot(b, l);
+    if (snap.tets.empty()) continue;
+    const Level<T>& L = world.level<T>(b, l);
+    std::vector<std::int32_t> index(L.node_count, -1);
+    std::vector<double> vm_sum;
+    std::vector<int> vm_count;
+    const std::size_t first = topo->source_node.size();
+    for (const auto& tri : boundary_triangles(snap.tets)) {
+      std::array<std::int32_t, 3> t{};
+      for (int k = 0; k < 3; ++k) {
+        std::int32_t& slot = index[std::size_t(tri[std::size_t(k)])];
+        if (slot < 0) {
+          slot = std::int32_t(topo->source_node.size());
+          topo->source_node.push_back(tri[std::size_t(k)]);
+          const std::size_t n = std::size_t(tri[std::size_t(k)]);
+          for (int d = 0; d < 3; ++d) body.points.push_back(float(snap.points[3 * n + std::size_t(d)]));
+          if (L.state[n] == kNodeFixed) {
+            bool moved = false;
+            for (const auto& m : world.body_def(b).prescribed) moved = moved || in_region(m.region, L, origin, n, tol);
+            (moved ? topo->driven : topo->fixed).push_back(slot);
+          }
+        }
+        t[std::size_t(k)] = slot;
+      }
+      topo->triangles.push_back(t);
+    }
+    const std::size_t count = topo->source_node.size() - first;
+    if (field == Field::displacement || field == Field::level) {
+      for (std::size_t s = first; s < first + count; ++s) {
+        const std::size_t n = std::size_t(topo->source_node[s]);
+        const double* d = &snap.displacement[3 * n];
+        body.values.push_back(field == Field::level ? float(l) : float(std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])));
+      }
+    } else if (field == Field::von_mises) {  // averaged over the stepped tets around each surface node
+      vm_sum.assign(count, 0.0);
+      vm_count.assign(count, 0);
+      for (std::size_t t = 0; t < snap.tets.size(); ++t)
+        for (int a = 0; a < 4; ++a) {
+          const std::int32_t s = index[std::size_t(snap.tets[t][std::size_t(a)])];
+          if (s < 0) continue;
+          vm_sum[std::size_t(s) - first] += snap.von_mises[t];
+          ++vm_count[std::size_t(s) - first];
+        }
+      for (std::size_t s = 0; s < count; ++s) body.values.push_back(vm_count[s] ? float(vm_sum[s] / vm_count[s]) : 0.f);
+    }
+  }
+  body.topology = topo;
+  return body;
+}
+
 }  // namespace
 
 Field parse_field(std::string_view name, std::string_view what) {
   if (name == "displacement") return Field::displacement;
   if (name == "von_mises") return Field::von_mises;
+  if (name == "level") return Field::level;
   if (name == "none") return Field::none;
-  throw InputError(fmt::format("{}: unknown field \"{}\"; expected one of displacement, von_mises, none", what, name));
+  throw InputError(
+      fmt::format("{}: unknown field \"{}\"; expected one of displacement, von_mises, level, none", what, name));
 }
 
 const char* to_string(Field f) {
   switch (f) {
     case Field::displacement: return "displacement";
     case Field::von_mises: return "von_mises";
+    case Field::level: return "level";
     default: return "none";
   }
 }
 const char* field_unit(Field f) { return f == Field::displacement ? "m" : f == Field::von_mises ? "Pa" : ""; }
 const char* field_title(Field f) {
-  return f == Field::displacement ? "displacement" : f == Field::von_mises ? "von Mises stress" : "";
+  return f == Field::displacement ? "displacement"
+         : f == Field::von_mises  ? "von Mises stress"
+         : f == Field::level      ? "level (0 = coarsest)"
+                                  : "";
 }
 
 CameraPreset parse_camera_preset(std::string_view name, std::string_view what) {

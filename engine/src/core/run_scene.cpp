@@ -59,16 +59,24 @@ class VtuSeries {
   }
   void write(const World& w, std::vector<std::string>& files) {
     if (!enabled_) return;
+    int part = 0;
     for (std::size_t b = 0; b < w.body_count(); ++b) {
-      const World::Snapshot s = w.snapshot(BodyId(b));
-      const std::string name = fmt::format("vtu/{}_{:05d}.vtu", w.body_def(BodyId(b)).name, frame_);
-      std::vector<VtuField> fields;
-      fields.push_back({"displacement", 3, false, s.displacement});
-      fields.push_back({"von_mises", 1, true, s.von_mises});
-      fields.push_back({"stress", 9, true, s.stress});
-      write_vtu(dir_ / name, s.points, s.tets, fields, VtuEncoding::base64_zlib);
-      pvd_.add(w.time(), name, int(b));
-      files.push_back(name);
+      // A multiresolution body: one file per level, its stepped part, so that the split shows.
+      const int levels = w.level_count(BodyId(b));
+      for (int l = 0; l < levels; ++l) {
+        const World::Snapshot s = w.snapshot(BodyId(b), l);
+        const std::string& body = w.body_def(BodyId(b)).name;
+        const std::string name = levels == 1 ? fmt::format("vtu/{}_{:05d}.vtu", body, frame_)
+                                             : fmt::format("vtu/{}_L{}_{:05d}.vtu", body, l, frame_);
+        std::vector<VtuField> fields;
+        fields.push_back({"displacement", 3, false, s.displacement});
+        fields.push_back({"von_mises", 1, true, s.von_mises});
+        fields.push_back({"stress", 9, true, s.stress});
+        if (levels > 1) fields.push_back({"level", 1, true, std::vector<double>(s.tets.size(), double(l))});
+        write_vtu(dir_ / name, s.points, s.tets, fields, VtuEncoding::base64_zlib);
+        pvd_.add(w.time(), name, part++);
+        files.push_back(name);
+      }
     }
     pvd_.write();
     ++frame_;

@@ -425,14 +425,16 @@ template class Simulation<double>;
 
 // Used by World::snapshot.
 template <class T>
-void cauchy_stress(Executor& exec, const Level<T>& L, std::vector<double>& sigma9) {
+void cauchy_stress(Executor& exec, const SimBody<T>& body, const Level<T>& L, std::vector<double>& sigma9) {
   sigma9.resize(9 * L.tet_count);
-  const ElementContext<T> ec = element_context(L);
+  ElementContext<T> ec = element_context(L);
+  CurrentState<T> now;
+  use_current_state(body, L, ec, now);
   const int measure = L.model == ForceModel::stvk ? 1 : L.model == ForceModel::corotational ? 2 : 0;
   double* out = sigma9.data();
   exec.parallel_for(L.tet_count, kTetGrain, [&](Range r) { element_cauchy_stress(ec, r, measure, out); });
 }
-template void cauchy_stress<float>(Executor&, const Level<float>&, std::vector<double>&);
-template void cauchy_stress<double>(Executor&, const Level<double>&, std::vector<double>&);
+template void cauchy_stress<float>(Executor&, const SimBody<float>&, const Level<float>&, std::vector<double>&);
+template void cauchy_stress<double>(Executor&, const SimBody<double>&, const Level<double>&, std::vector<double>&);
 
 }  // namespace pliant::detail

@@ -18,7 +18,7 @@ namespace pliant {
 
 namespace detail {
 template <class T>
-void cauchy_stress(Executor& exec, const Level<T>& L, std::vector<double>& sigma9);
+void cauchy_stress(Executor& exec, const SimBody<T>& body, const Level<T>& L, std::vector<double>& sigma9);
 }
 
 struct World::Impl {
@@ -602,25 +602,33 @@ std::uint64_t World::state_hash() const {
 World::Snapshot World::snapshot(BodyId b, int l) const {
   Snapshot out;
   impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
     const auto& L = impl_->level(s, b, l);
-    const Vec3d& o = impl_->body(s, b).origin;
+    const Vec3d& o = body.origin;
+    using T = std::remove_cvref_t<decltype(L.x[0][0])>;
+    detail::CurrentState<T> now;  // ghosts where their sources are now
+    detail::current_state(body, L, now);
     out.points.resize(3 * L.node_count);
     out.displacement.resize(3 * L.node_count);
     for (std::size_t n = 0; n < L.node_count; ++n)
       for (int k = 0; k < 3; ++k) {
-        out.points[3 * n + k] = o[k] + double(L.x[k][n]);  // world frame
-        out.displacement[3 * n + k] = double(L.x[k][n]) - double(L.X[k][n]);
+        out.points[3 * n + k] = o[k] + double(now.x[k][n]);  // world frame
+        out.displacement[3 * n + k] = double(now.x[k][n]) - double(L.X[k][n]);
       }
-    out.tets.resize(L.tet_count);
-    for (std::size_t t = 0; t < L.tet_count; ++t)
-      out.tets[t] = {L.tet[0][t], L.tet[1][t], L.tet[2][t], L.tet[3][t]};
-    detail::cauchy_stress(impl_->exec, L, out.stress);
-    out.von_mises.resize(L.tet_count);
-    for (std::size_t t = 0; t < L.tet_count; ++t) {
-      const double* q = &out.stress[9 * t];
-      const double a = q[0] - q[4], bb = q[4] - q[8], c = q[8] - q[0];
-      out.von_mises[t] = std::sqrt(0.5 * (a * a + bb * bb + c * c) + 3 * (q[1] * q[1] + q[5] * q[5] + q[2] * q[2]));
-    }
+    std::vector<double> sigma;
+    detail::cauchy_stress(impl_->exec, body, L, sigma);
+    // The tets the level steps (all of them for a single-level body).
+    out.tets.reserve(L.stepped_count);
+    out.stress.reserve(9 * L.stepped_count);
+    out.von_mises.reserve(L.stepped_count);
+    for (const Range& run : L.stepped_runs)
+      for (std::size_t t = run.begin; t < run.end; ++t) {
+        out.tets.push_back({L.tet[0][t], L.tet[1][t], L.tet[2][t], L.tet[3][t]});
+        const double* q = &sigma[9 * t];
+        out.stress.insert(out.stress.end(), q, q + 9);
+        const double a = q[0] - q[4], bb = q[4] - q[8], c = q[8] - q[0];
+        out.von_mises.push_back(std::sqrt(0.5 * (a * a + bb * bb + c * c) + 3 * (q[1] * q[1] + q[5] * q[5] + q[2] * q[2])));
+      }
   });
   return out;
 }

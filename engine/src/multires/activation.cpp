@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
@@ -41,6 +42,44 @@ double mean_edge(const TetMesh& m) {
         sum += std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
       }
   return m.tets.empty() ? 0 : sum / (6.0 * double(m.tets.size()));
+}
+
+// A stepped tet with three or four of its faces against refined tets, or none against a stepped tet
+// of its level, is a dangling piece of its level: non-nested meshes leave such tets at the edge of
+// a finer region, held by a node or an edge, and they flap. Refine them too (and again, for the tets
+// this leaves dangling).
+void refine_dangling(const TetMesh& m, const std::vector<std::uint8_t>& present, std::vector<std::uint8_t>& refined) {
+  constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  std::map<std::array<std::int32_t, 3>, std::array<std::int32_t, 2>> faces;
+  for (std::size_t t = 0; t < m.tet_count(); ++t)
+    for (const auto& f : kFace) {
+      std::array<std::int32_t, 3> key{m.tets[t][std::size_t(f[0])], m.tets[t][std::size_t(f[1])], m.tets[t][std::size_t(f[2])]};
+      std::sort(key.begin(), key.end());
+      auto [it, fresh] = faces.try_emplace(key, std::array<std::int32_t, 2>{std::int32_t(t), -1});
+      if (!fresh) it->second[1] = std::int32_t(t);
+    }
+  std::vector<std::vector<std::int32_t>> neighbours(m.tet_count());
+  for (const auto& [key, pair] : faces)
+    if (pair[1] >= 0) {
+      neighbours[std::size_t(pair[0])].push_back(pair[1]);
+      neighbours[std::size_t(pair[1])].push_back(pair[0]);
+    }
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (std::size_t t = 0; t < m.tet_count(); ++t) {
+      if (!present[t] || refined[t]) continue;
+      int against = 0, with = 0;
+      for (auto u : neighbours[t]) {
+        const bool refined_u = present[std::size_t(u)] && refined[std::size_t(u)];
+        against += refined_u;
+        with += present[std::size_t(u)] && !refined[std::size_t(u)];
+      }
+      if (against >= 3 || (with == 0 && against > 0)) {
+        refined[t] = 1;
+        changed = true;
+      }
+    }
+  }
 }
 
 }  // namespace
@@ -113,6 +152,7 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
       if (l + 1 < n)
         for (int c = 0; c < 4; ++c) rf[t] |= std::uint8_t(target[std::size_t(l)][std::size_t(m.tets[t][std::size_t(c)])] > l);
     }
+    if (l + 1 < n) refine_dangling(m, pr, rf);
     auto& st = a.levels[std::size_t(l)].stepped;
     st.resize(m.tet_count());
     for (std::size_t t = 0; t < m.tet_count(); ++t) st[t] = pr[t] && !rf[t];

@@ -28,7 +28,8 @@ class World;
 namespace pliant::raster {
 
 // What colours the surface.
-enum class Field { none, displacement, von_mises };
+// level: the level of a multiresolution body that steps each part of its surface (0 = coarsest).
+enum class Field { none, displacement, von_mises, level };
 // "displacement" | "von_mises" | "none"; anything else throws InputError naming `what`
 // (e.g. "--field") and listing the choices.
 Field parse_field(std::string_view name, std::string_view what = "field");
