@@ -257,7 +257,7 @@ TEST(Render, BadNamesAndValuesAreClearErrors) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_THAT(e.what(), HasSubstr("--field: unknown field \"stress\""));
-    EXPECT_THAT(e.what(), HasSubstr("displacement, von_mises, none"));
+    EXPECT_THAT(e.what(), HasSubstr("displacement, von_mises, level, none"));
   }
   try {
     parse_camera_preset("iso", "--camera");
