@@ -89,7 +89,7 @@ check render_missing 2 "absent\.vtu" -- "$pliant" render "$work/absent.vtu" -o "
 # Bad names and values: exit 2, the message names the option and the value.
 check run_bad_camera 2 "--camera: unknown camera \"iso\".*scene, auto, front, side, top" -- \
   "$pliant" run "$box" --out "$work/bad" --png-every 0.005 --camera iso
-check run_bad_field 2 "--field: unknown field \"stress\".*displacement, von_mises, none" -- \
+check run_bad_field 2 "--field: unknown field \"stress\".*displacement, von_mises, level, none" -- \
   "$pliant" run "$box" --out "$work/bad" --png-every 0.005 --field stress
 check render_bad_camera 2 "--camera: unknown camera \"iso\"" -- "$pliant" render "$box" -o "$work/x.png" --camera iso
 check render_bad_field 2 "--field: unknown field \"stress\"" -- "$pliant" render "$vtu" -o "$work/x.png" --field stress
