@@ -385,3 +385,34 @@ TEST(MultilevelStep, OrganSplitMovesLikeTheFineOrgan) {
 }  // namespace
 }  // namespace pliant
 #endif
+
+#ifdef PLIANT_HAS_CGAL
+namespace pliant {
+namespace {
+
+TEST(MultilevelStep, NonNestedSplitWeighsTheBody) {
+  BodyDef b;
+  b.mesh.kind = MeshSourceDef::Kind::implicit;
+  b.mesh.shape = "organ";
+  b.mesh.cell_size = 0.01;
+  b.material.density = 1060;
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.kind = ActiveDef::Kind::regions;
+  ActiveRegionDef fine;
+  fine.level = 2;
+  fine.region.kind = RegionDef::Kind::sphere;
+  fine.region.center = {0.03, 0, 0.04};
+  fine.region.radius = 0.04;
+  b.multiresolution.active.regions = {fine};
+  World w(world_def());
+  const BodyId id = w.add_body(b);
+  const TetMesh finest = build_mesh(b.mesh);
+  double volume = 0;
+  for (const Tet& t : finest.tets)
+    volume += signed_tet_volume(finest.point(t[0]), finest.point(t[1]), finest.point(t[2]), finest.point(t[3]));
+  EXPECT_NEAR(momenta(w, id).mass, 1060 * volume, 1e-13 * 1060 * volume);
+}
+
+}  // namespace
+}  // namespace pliant
+#endif

@@ -98,6 +98,9 @@ struct MultiresolutionDef {
   int levels = 1;      // N >= 1; 1 = a single-resolution body
   double ratio = 2;    // r > 1: resolution ratio between neighbouring levels
   std::vector<MeshSourceDef> coarser;  // explicit coarser levels, coarse to fine (N = size + 1)
+  // Triangles of each coarser level's simplified surface, coarse to fine (N - 1 counts; empty: the
+  // finer level's / ratio^2). Each is then meshed at the cell size that gives about as many facets.
+  std::vector<std::size_t> faces;
   ActiveDef active;
 };
 

@@ -46,7 +46,9 @@ struct Hierarchy {
 // (rounded up, at least 1); the meshes it lists; otherwise the boundary of the finest mesh
 // simplified to about 1/ratio^2 of the faces per level (simplify_surface) and meshed at ratio^k
 // times the finest level's cell size (mesh_closed_surface; the finest cell size is the one Mesh_3
-// would need for its tet count, cbrt(4.3 V / tets)). Throws InputError (e.g. without CGAL).
+// would need for its tet count, cbrt(4.3 V / tets); or, with faces given, the size whose facets tile
+// the simplified surface in that many triangles), then scaled about its centroid to the finest
+// mesh's volume (simplification and meshing shrink a surface). Throws InputError (e.g. without CGAL).
 std::vector<TetMesh> build_level_meshes(const BodyDef& def, TetMesh finest);
 
 // Links the levels (the meshes must be finalized and non-empty).

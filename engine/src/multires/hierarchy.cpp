@@ -21,6 +21,39 @@ double equivalent_cell_size(const TetMesh& m) {
   return std::cbrt(4.3 * volume / double(std::max<std::size_t>(m.tet_count(), 1)));
 }
 
+double surface_area(const TriangleSurface& s) {
+  double a = 0;
+  for (const auto& t : s.triangles) {
+    const double* p = &s.points[3 * std::size_t(t[0])];
+    const double* q = &s.points[3 * std::size_t(t[1])];
+    const double* r = &s.points[3 * std::size_t(t[2])];
+    const double u[3] = {q[0] - p[0], q[1] - p[1], q[2] - p[2]}, v[3] = {r[0] - p[0], r[1] - p[1], r[2] - p[2]};
+    a += 0.5 * std::hypot(u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]);
+  }
+  return a;
+}
+
+double mesh_volume(const TetMesh& m) {
+  double v = 0;
+  for (const Tet& t : m.tets) v += signed_tet_volume(m.point(t[0]), m.point(t[1]), m.point(t[2]), m.point(t[3]));
+  return v;
+}
+
+// Edge collapse cuts off the convex parts of a surface and Mesh_3's facets are chords of it: a
+// coarse level comes out smaller than the body (the organ: 9% less volume at level 1, 27% at level
+// 0), so it would be lighter and softer than the body it stands for. Scaled about its centroid to
+// the finest mesh's volume, every level has the body's mass.
+void match_volume(TetMesh& coarse, const TetMesh& fine) {
+  const double vc = mesh_volume(coarse), vf = mesh_volume(fine);
+  if (!(vc > 0 && vf > 0)) return;
+  const double f = std::cbrt(vf / vc);
+  Vec3d c{0, 0, 0};
+  for (std::size_t i = 0; i < coarse.node_count(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) c[k] += coarse.points[3 * i + k] / double(coarse.node_count());
+  for (std::size_t i = 0; i < coarse.node_count(); ++i)
+    for (std::size_t k = 0; k < 3; ++k) coarse.points[3 * i + k] = c[k] + f * (coarse.points[3 * i + k] - c[k]);
+}
+
 TetMesh coarse_box(const MeshSourceDef& fine, double ratio, int k) {
   MeshSourceDef src = fine;
   const double f = std::pow(ratio, k);
@@ -51,15 +84,24 @@ std::vector<TetMesh> build_level_meshes(const BodyDef& def, TetMesh finest) {
     return meshes;
   }
   // Surface pipeline (thesis Fig. 5.1): simplify the boundary level by level, mesh each surface.
+  if (!mr.faces.empty() && int(mr.faces.size()) + 1 != n)
+    throw InputError(fmt::format("body '{}': multiresolution.faces gives {} counts for {} coarser levels", def.name,
+                                 mr.faces.size(), n - 1));
   const TetMesh& fine = meshes[std::size_t(n - 1)];
   const double h = equivalent_cell_size(fine);
   TriangleSurface surface = boundary_surface(fine);
   for (int l = n - 2; l >= 0; --l) {
     const int k = n - 1 - l;
     const std::string what = fmt::format("body '{}', level {} of {}", def.name, l, n);
-    const double faces = double(surface.triangles.size()) / (mr.ratio * mr.ratio);
+    const double faces = mr.faces.empty() ? double(surface.triangles.size()) / (mr.ratio * mr.ratio)
+                                          : double(mr.faces[std::size_t(l)]);
     surface = simplify_surface(surface, std::size_t(std::max(4.0, std::round(faces))), what);
-    TetMesh m = mesh_closed_surface(surface, h * std::pow(mr.ratio, k), what);
+    // Ratio: ratio^k times the finest cell size. Face counts: the size whose facets, of area
+    // sqrt(3)/4 s^2, would tile the simplified surface in that many triangles.
+    const double s = mr.faces.empty() ? h * std::pow(mr.ratio, k)
+                                      : std::sqrt(surface_area(surface) / (0.433 * double(surface.triangles.size())));
+    TetMesh m = mesh_closed_surface(surface, s, what);
+    match_volume(m, fine);
     renumber_for_locality(m);
     meshes[std::size_t(l)] = std::move(m);
   }

@@ -178,8 +178,18 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
           L.external[k][std::size_t(v)] += T(def.loads[i].total_force[std::size_t(k)] / double(count));
     }
   }
+  // Non-nested levels tile the body only up to slivers at their interfaces (overlaps counted twice,
+  // gaps not at all: within 2.2% of the organ's volume over 45 splits, tests/multires): scale every
+  // mass so that the body weighs rho x the volume of its finest mesh whatever the split. Nested
+  // meshes tile exactly, and the factor is 1 to rounding.
+  double total = 0, volume = 0;
+  for (std::size_t l = 0; l < n; ++l)
+    for (double m : mass[l]) total += m;
+  for (std::size_t t = 0; t < h.meshes.back().tet_count(); ++t) volume += rest_volume(h.meshes.back(), t);
+  const double factor = total > 0 ? def.material.density * volume / total : 1.0;
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
+    for (double& m : mass[l]) m *= factor;
     for (std::size_t i = 0; i < L.node_count; ++i) {
       L.mass[i] = T(mass[l][i]);
       L.inv_mass[i] = L.state[i] == kNodeFree ? T(1.0 / mass[l][i]) : T(0);

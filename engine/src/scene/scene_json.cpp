@@ -360,6 +360,16 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
     if (!(m.ratio > 1 && m.ratio <= 16)) fail(p, fmt::format("must be in (1, 16], got {}", m.ratio));
     if (!m.coarser.empty()) fail(p, "not used when \"levels\" lists the coarser meshes");
   });
+  optional(j, path, "faces", [&](const auto& v, const auto& p) {
+    if (!m.coarser.empty()) fail(p, "not used when \"levels\" lists the coarser meshes");
+    if (static_cast<long long>(array(v, p).size()) != m.levels - 1)
+      fail(p, fmt::format("needs {} counts (one per coarser level, coarse to fine), got {}", m.levels - 1, v.size()));
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      m.faces.push_back(static_cast<std::size_t>(integer(v[i], element(p, i), 4, 100'000'000)));
+      if (i > 0 && m.faces[i] <= m.faces[i - 1])
+        fail(element(p, i), fmt::format("must grow from coarse to fine: {} after {}", m.faces[i], m.faces[i - 1]));
+    }
+  });
   optional(j, path, "active", [&](const auto& v, const auto& p) {
     const std::string levels = fmt::format("0 (coarsest) .. {} (finest)", m.levels - 1);
     if (v.is_string()) {
