@@ -93,12 +93,12 @@ RegionDef sphere(Vec3d c, double r) {
   return s;
 }
 
-BodyDef bar(std::array<int, 3> cells, double length = 1.0) {
+BodyDef bar(std::array<int, 3> cells, double length = 1.0, double width = 0.1) {
   BodyDef b;
   b.name = "bar";
   b.mesh.kind = MeshSourceDef::Kind::box;
   b.mesh.min = {0, 0, 0};
-  b.mesh.max = {length, 0.1, 0.1};
+  b.mesh.max = {length, width, width};
   b.mesh.cells = cells;
   b.mesh.tets_per_cell = 6;  // Kuhn cells: box levels with an even ratio nest exactly
   b.material.young = 1e6;
@@ -121,6 +121,7 @@ struct Run {
   const TickStats* ticks = nullptr;
   TickStats stats;
   std::vector<LevelInfo> levels;
+  std::vector<double> stiffness;  // per level: the calibration factor
 };
 
 Run run(const WorldDef& wd, const BodyDef& body, const std::vector<ProbeDef>& probes, double duration, double every) {
@@ -128,7 +129,10 @@ Run run(const WorldDef& wd, const BodyDef& body, const std::vector<ProbeDef>& pr
   const BodyId id = w.add_body(body);
   for (const auto& p : probes) w.add_probe(p);
   Run r;
-  for (int l = 0; l < w.level_count(id); ++l) r.levels.push_back(w.level_info(id, l));
+  for (int l = 0; l < w.level_count(id); ++l) {
+    r.levels.push_back(w.level_info(id, l));
+    r.stiffness.push_back(r.levels.back().stiffness_factor);
+  }
   double next = 0;
   const auto start = Clock::now();
   while (w.time() < duration) {
@@ -265,10 +269,11 @@ void flat_ticks() {
 }
 
 void modes() {
+  std::array<double, 2> fine_cantilever{}, fine_organ{};
   fmt::print("\n### Modes across levels\n\n");
   fmt::print("Each uniform level alone, released from rest under gravity: first-mode frequency and damping\n"
              "ratio of the tip's oscillation (zero crossings and log decrement), double precision.\n\n");
-  fmt::print("| body | level | cells or tets | f1 (Hz) | vs finest | damping ratio | vs finest |\n|---|---|---|---|---|---|---|\n");
+  fmt::print("| body | level | cells or tets | stiffness | f1 (Hz) | vs finest | damping ratio | vs finest |\n|---|---|---|---|---|---|---|---|\n");
   // Cantilever: the validation beam (1 x 0.1 x 0.1 m, E = 1.4715e8 Pa: f1 = 6.197 Hz by
   // Euler-Bernoulli), light mass damping (zeta = alpha / (2 omega) ~ 2.6% at 6.2 Hz). 6 tets per cell.
   fmt::print("| cantilever, Euler-Bernoulli | | | 6.197 | | | |\n");
@@ -277,9 +282,15 @@ void modes() {
     b.material.young = 1.4715e8;
     b.material.damping.mass = 2.0;
     ProbeDef tip{"tip", "bar", {1, 0.05, 0.05}};
+    for (bool calibrate : {false, true}) {
     std::vector<std::array<double, 2>> m;
     for (int level = 2; level >= 0; --level) {
+      if (calibrate && level == 2) {
+        m.push_back({0, 0});
+        continue;
+      }
       b.multiresolution = uniform(3, level);
+      b.multiresolution.calibrate = calibrate;
       WorldDef wd;
       wd.precision = Precision::float64;
       wd.threads = 2;
@@ -289,10 +300,14 @@ void modes() {
       m.push_back(mode_of(r.t, z, 0.0));
       const int cells = 40 >> (2 - level);
       // Mass damping alone: zeta = alpha / (2 omega) at the level's own frequency.
-      fmt::print("| cantilever | {} | {}x{}x{} | {:.3f} | {:+.1f}% | {:.4f} (alpha/2omega: {:.4f}) | {:+.1f}% |\n", level,
-                 cells, std::max(1, 4 >> (2 - level)), std::max(1, 4 >> (2 - level)), m.back()[0],
+      if (calibrate) m.front() = fine_cantilever;
+      else if (level == 2) fine_cantilever = m.back();
+      fmt::print("| cantilever | {} | {}x{}x{} | {} | {:.3f} | {:+.1f}% | {:.4f} (alpha/2omega: {:.4f}) | {:+.1f}% |\n", level,
+                 cells, std::max(1, 4 >> (2 - level)), std::max(1, 4 >> (2 - level)),
+                 calibrate ? fmt::format("x {:.3f}", r.stiffness[std::size_t(level)]) : "material", m.back()[0],
                  100 * (m.back()[0] / m.front()[0] - 1), m.back()[1], 2.0 / (4 * M_PI * m.back()[0]),
                  100 * (m.back()[1] / m.front()[1] - 1));
+    }
     }
   }
   // The organ hanging from its ligament, stiffer (E = 2e5 Pa) so that its swing stays small, with
@@ -302,9 +317,15 @@ void modes() {
     b.material.damping.mass = 1.0;
     b.material.damping.stiffness = 0;
     ProbeDef tip{"tip", "organ", {0.08, 0, 0}};
+    for (bool calibrate : {false, true}) {
     std::vector<std::array<double, 2>> m;
     for (int level = 2; level >= 0; --level) {
+      if (calibrate && level == 2) {
+        m.push_back({0, 0});
+        continue;
+      }
       b.multiresolution = uniform(3, level);
+      b.multiresolution.calibrate = calibrate;
       WorldDef wd;
       wd.precision = Precision::float64;
       wd.threads = 2;
@@ -312,9 +333,14 @@ void modes() {
       std::vector<double> z;
       for (const auto& s : r.probes) z.push_back(s[0][2]);
       m.push_back(mode_of(r.t, z, 0.0));
-      fmt::print("| organ (E = 2e5 Pa) | {} | {} tets | {:.3f} | {:+.1f}% | {:.4f} (alpha/2omega: {:.4f}) | {:+.1f}% |\n",
-                 level, r.levels[std::size_t(level)].tets, m.back()[0], 100 * (m.back()[0] / m.front()[0] - 1),
-                 m.back()[1], 1.0 / (4 * M_PI * m.back()[0]), 100 * (m.back()[1] / m.front()[1] - 1));
+      if (calibrate) m.front() = fine_organ;
+      else if (level == 2) fine_organ = m.back();
+      fmt::print("| organ (E = 2e5 Pa) | {} | {} tets | {} | {:.3f} | {:+.1f}% | {:.4f} (alpha/2omega: {:.4f}) | {:+.1f}% |\n",
+                 level, r.levels[std::size_t(level)].tets,
+                 calibrate ? fmt::format("x {:.3f}", r.stiffness[std::size_t(level)]) : "material", m.back()[0],
+                 100 * (m.back()[0] / m.front()[0] - 1), m.back()[1], 1.0 / (4 * M_PI * m.back()[0]),
+                 100 * (m.back()[1] / m.front()[1] - 1));
+    }
     }
   }
 }
@@ -328,7 +354,9 @@ void trade(const fs::path& out_dir) {
   fmt::print("\n### The trade: a local load\n\n");
   fmt::print("A probe next to a prescribed push, against a reference twice as fine (uniform); error = RMS over\n"
              "the run of the distance to the reference's probe, over the largest displacement of that probe;\n"
-             "cost = tets computed and wall seconds per simulated second (2 threads, double).\n\n");
+             "cost = tets computed and wall seconds per simulated second (2 threads, double). Coarser levels\n"
+             "calibrated (multiresolution.calibrate, the default) unless said. Static split 2 / 0: the finest\n"
+             "level in a sphere around the push, the coarsest elsewhere; 2 / 1: level 1 elsewhere.\n\n");
   fmt::print("| scene | run | stepped tets (by level) | tet updates / s | wall s / s | probe error | cost vs fine | error vs fine |\n");
   fmt::print("|---|---|---|---|---|---|---|---|\n");
   struct Scene {
@@ -338,21 +366,25 @@ void trade(const fs::path& out_dir) {
     RegionDef region;   // the static split's fine region
     ProbeDef probe;
     double duration;
+    Vec3d gravity{0, 0, -9.81};
   };
   std::vector<Scene> scenes;
   {
-    // A long bar clamped at x = 0, pushed down 1 cm over 0.2 s near x = 1.2 m and held.
+    // A long bar clamped at x = 0, pushed down 1 cm over 0.2 s near x = 1.2 m and held; no gravity,
+    // so that the push is the only load (under its own weight the whole bar swings, and that swing,
+    // set by the coarse part near the clamp, would be the error measured).
     Scene s;
+    s.gravity = {0, 0, 0};
     s.name = "bar 1.6 m";
-    s.fine = bar({64, 4, 4}, 1.6);
+    s.fine = bar({64, 8, 8}, 1.6, 0.2);  // levels 64x8x8, 32x4x4, 16x2x2 (cells of 2.5, 5, 10 cm)
     PrescribedMotionDef push;
-    push.region = sphere({1.2, 0.05, 0.1}, 0.06);  // nodes of every level (level 0: 0.1 m apart)
+    push.region = sphere({1.2, 0.1, 0.2}, 0.06);  // nodes of every level (level 0: 0.1 m apart)
     push.keyframes = {{0, {0, 0, 0}}, {0.2, {0, 0, -0.01}}};
     s.fine.prescribed = {push};
     s.reference = s.fine;
-    s.reference.mesh.cells = {128, 8, 8};
-    s.region = sphere({1.2, 0.05, 0.05}, 0.2);
-    s.probe = {"near", "bar", {1.1, 0.05, 0.1}};
+    s.reference.mesh.cells = {128, 16, 16};
+    s.region = sphere({1.2, 0.1, 0.1}, 0.15);
+    s.probe = {"near", "bar", {1.1, 0.1, 0.2}};
     s.duration = g_quick ? 0.05 : 0.4;
     scenes.push_back(s);
   }
@@ -372,6 +404,7 @@ void trade(const fs::path& out_dir) {
     WorldDef wd;
     wd.precision = Precision::float64;
     wd.threads = 2;
+    wd.gravity = sc.gravity;
     const double every = 1e-3;
     const Run ref = run(wd, sc.reference, {sc.probe}, sc.duration, every);
     std::vector<TradePoint> points;
@@ -399,7 +432,19 @@ void trade(const fs::path& out_dir) {
     }
     BodyDef b = sc.fine;
     b.multiresolution = split(3, sc.region);
-    row("static split", b);
+    row("static split 2 / 0", b);
+    b.multiresolution.calibrate = false;
+    row("static split 2 / 0, material stiffness", b);
+    // Level 1 everywhere else instead of level 0: a region of level 1 over the whole body.
+    b = sc.fine;
+    b.multiresolution = split(3, sc.region);
+    ActiveRegionDef rest;
+    rest.level = 1;
+    rest.region.kind = RegionDef::Kind::box;
+    rest.region.min = {-10, -10, -10};
+    rest.region.max = {10, 10, 10};
+    b.multiresolution.active.regions.push_back(rest);
+    row("static split 2 / 1", b);
     raster::Plot p;
     p.title = fmt::format("{}: probe error against cost", sc.name);
     p.x = {"tet updates per simulated second", "1/s", true};

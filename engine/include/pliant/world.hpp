@@ -38,6 +38,7 @@ struct LevelInfo {
   int period = 1;                // fine ticks per step of the level
   double dt = 0;                 // s, its step: period x the tick
   double stable_dt = 0;          // s, its stable bound
+  double stiffness_factor = 1;   // its moduli over the material's (multiresolution calibration)
 };
 
 using BodyId = int;

@@ -36,6 +36,8 @@ struct SimBody {
   Vec3d origin{0, 0, 0};
   std::vector<Level<T>> levels;   // 0 (coarsest) .. L (finest); one level until multiresolution lands
   std::vector<MotionState> motions;
+  // Per level: the factor its elastic moduli were scaled by (multiresolution calibration; 1 = none).
+  std::vector<double> stiffness_factors;
 };
 
 struct ProbeState {

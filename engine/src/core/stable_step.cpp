@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "pliant/level_passes.hpp"
+#include "rest_stiffness.hpp"
 #include "simulation.hpp"
 
 namespace pliant::detail {
@@ -55,33 +56,6 @@ double tridiagonal_max_eigenvalue(const std::vector<double>& a, const std::vecto
       lo = mid;
   }
   return hi;
-}
-
-// The springs model linearised at rest (no tension there, so no geometric stiffness): each tet
-// edge a-b of rest vector D adds k (D . (u_b - u_a)) D / |D|^2 to corner a and its opposite to b,
-// k = E V / |D|^2, for the displacements u in c.x. Scalar, in double, into the corner forces.
-template <class T>
-void springs_linearised(const ElementContext<T>& c, Range r) {
-  constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-  for (std::size_t t = r.begin; t < r.end; ++t) {
-    double f[4][3] = {};
-    for (const auto& e : kEdges) {
-      const std::int32_t a = c.tet[e[0]][t], b = c.tet[e[1]][t];
-      double D[3], du[3];
-      for (int k = 0; k < 3; ++k) {
-        D[k] = double(c.X[k][b]) - double(c.X[k][a]);
-        du[k] = double(c.x[k][b]) - double(c.x[k][a]);
-      }
-      const double L2 = D[0] * D[0] + D[1] * D[1] + D[2] * D[2];
-      const double s = double(c.young) * double(c.volume[t]) / (L2 * L2) * (D[0] * du[0] + D[1] * du[1] + D[2] * du[2]);
-      for (int k = 0; k < 3; ++k) {
-        f[e[0]][k] += s * D[k];
-        f[e[1]][k] -= s * D[k];
-      }
-    }
-    for (int a = 0; a < 4; ++a)
-      for (int k = 0; k < 3; ++k) c.corner_force[3 * a + k][t] = T(f[a][k]);
-  }
 }
 
 }  // namespace
@@ -127,62 +101,17 @@ double highest_frequency(Executor& exec, Level<T>& L, int iterations) {
   }
   if (free_nodes == 0 || nt == 0) return 0;
 
-  // K u from the level's own force kernel, undamped. The linear, stvk and corotational models
-  // share their linearisation at rest (linear elasticity), so the vectorised linear kernel
-  // serves all three: it is affine in the positions, f(x) = f(0) - K x, so positions x = s u (no
-  // rest positions, no cancellation) give K u = (f(0) - f(s u)) / s to rounding. Springs are
-  // not affine: springs_linearised is their exact linearisation at rest, f(u) = -K u.
-  ElementContext<T> ec = element_context(L);
-  ec.bulk_viscosity = ec.shear_viscosity = ec.spring_damping = T(0);
-  for (auto& r : ec.rotation) r = nullptr;
-  AlignedVector<T> x[3], f[3];
-  for (int k = 0; k < 3; ++k) {
-    x[k].assign(nn, T(0));
-    f[k].assign(nn, T(0));
-    ec.x[k] = x[k].data();
-  }
-  GatherContext<T> gc;
-  gc.offsets = L.incidence_offsets.data();
-  gc.incidence = L.incidence.data();
-  for (int q = 0; q < 12; ++q) gc.corner_force[q] = L.corner_force[q].data();
-  for (int k = 0; k < 3; ++k) gc.f[k] = f[k].data();
-  const bool springs = L.model == ForceModel::springs;
-  const std::size_t tet_grain = pass_grain(nt, kTetGrain), node_grain = pass_grain(nn, kNodeGrain);
-  auto forces = [&](std::vector<double>* out) {  // element pass + gather at the positions in x
-    if (springs)
-      exec.parallel_for(nt, tet_grain, [&](Range r) { springs_linearised(ec, r); });
-    else
-      exec.parallel_for(nt, tet_grain, [&](Range r) { element_forces_linear(ec, r); });
-    exec.parallel_for(nn, node_grain, [&](Range r) { gather_forces(gc, r); });
-    for (int k = 0; k < 3; ++k)
-      for (std::size_t i = 0; i < nn; ++i) out[k][i] = double(f[k][i]);
-  };
-  // Probing displacements of up to h_min: strains of order 1, so that the difference with f(0)
-  // loses nothing to cancellation.
-  const double h = L.min_altitude > 0 ? L.min_altitude : 1.0;
-  std::vector<double> f0[3], fa[3];
-  for (int k = 0; k < 3; ++k) {
-    f0[k].assign(nn, 0.0);
-    fa[k].assign(nn, 0.0);
-  }
-  if (!springs) forces(f0);  // f(0)
-
-  // A q for A = M^-1/2 K M^-1/2 (symmetric; its eigenvalues are omega^2).
+  // A q for A = M^-1/2 K M^-1/2 (symmetric; its eigenvalues are omega^2), K applied by
+  // RestStiffness (the level's own kernel linearised at rest).
+  RestStiffness<T> stiffness(exec, L);
   const std::size_t n = 3 * nn;
+  std::vector<double> u(n), ku(n);
   auto apply = [&](const std::vector<double>& q, std::vector<double>& w) {
-    double umax = 0;
     for (std::size_t i = 0; i < nn; ++i)
-      for (int k = 0; k < 3; ++k) umax = std::max(umax, std::fabs(sqrt_inv_mass[i] * q[3 * i + k]));
-    if (!(umax > 0)) {
-      std::fill(w.begin(), w.end(), 0.0);
-      return;
-    }
-    const double s = h / umax;
+      for (int k = 0; k < 3; ++k) u[3 * i + std::size_t(k)] = sqrt_inv_mass[i] * q[3 * i + std::size_t(k)];
+    stiffness.apply(u, ku);
     for (std::size_t i = 0; i < nn; ++i)
-      for (int k = 0; k < 3; ++k) x[k][i] = T(s * sqrt_inv_mass[i] * q[3 * i + k]);
-    forces(fa);
-    for (std::size_t i = 0; i < nn; ++i)
-      for (int k = 0; k < 3; ++k) w[3 * i + k] = sqrt_inv_mass[i] * (f0[k][i] - fa[k][i]) / s;
+      for (int k = 0; k < 3; ++k) w[3 * i + std::size_t(k)] = sqrt_inv_mass[i] * ku[3 * i + std::size_t(k)];
   };
   auto dot = [&](const std::vector<double>& a, const std::vector<double>& b) {  // fixed order
     double s = 0;
@@ -227,8 +156,6 @@ double highest_frequency(Executor& exec, Level<T>& L, int iterations) {
     for (std::size_t i = 0; i < n; ++i) q[i] = w[i] / b;
   }
   beta.resize(alpha.size() > 0 ? alpha.size() - 1 : 0);
-  // The corner forces were scratch: leave them as a fresh level has them.
-  for (auto& cf : L.corner_force) std::fill(cf.begin(), cf.end(), T(0));
   const double lambda_max = tridiagonal_max_eigenvalue(alpha, beta);
   return lambda_max > 0 && std::isfinite(lambda_max) ? std::sqrt(lambda_max) : 0.0;
 }

@@ -421,6 +421,8 @@ LevelInfo World::level_info(BodyId b, int l) const {
     i.period = L.period;
     i.dt = L.period * impl_->dt / impl_->substeps;
     i.stable_dt = L.stable_dt;
+    const auto& body = impl_->body(s, b);
+    i.stiffness_factor = std::size_t(l) < body.stiffness_factors.size() ? body.stiffness_factors[std::size_t(l)] : 1.0;
     return i;
   });
 }

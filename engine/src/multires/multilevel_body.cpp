@@ -4,6 +4,7 @@
 
 #include "../core/simulation.hpp"
 #include "activation.hpp"
+#include "calibration.hpp"
 #include "pliant/error.hpp"
 #include "pliant/kernels/element_forces.hpp"
 
@@ -63,6 +64,20 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
     std::vector<MotionState> ignored;
     body.levels.push_back(
         build_level<T>(meshes[l], body.origin, def, courant, ignored, exec, /*regions_may_be_empty=*/true));
+  }
+  // Coarser levels as stiff as the finest under their own weight (calibration.hpp).
+  body.stiffness_factors.assign(n, 1.0);
+  if (def.multiresolution.calibrate) {
+    const Compliance fine = weight_compliance(exec, body.levels[n - 1]);
+    std::size_t axis = 0;  // the finest level's softest axis
+    for (std::size_t k = 1; k < 3; ++k)
+      if (fine.omega2[k] < fine.omega2[axis]) axis = k;
+    for (std::size_t l = 0; l + 1 < n && fine.omega2[axis] > 0; ++l) {
+      const Compliance c = weight_compliance(exec, body.levels[l]);
+      if (!(c.omega2[axis] > 0)) continue;
+      body.stiffness_factors[l] = fine.omega2[axis] / c.omega2[axis];
+      scale_stiffness(exec, body.levels[l], def.material, body.stiffness_factors[l], courant);
+    }
   }
 
   // Roles, stepped tets, masses from the stepped tets.
