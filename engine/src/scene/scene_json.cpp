@@ -360,6 +360,7 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
     if (!(m.ratio > 1 && m.ratio <= 16)) fail(p, fmt::format("must be in (1, 16], got {}", m.ratio));
     if (!m.coarser.empty()) fail(p, "not used when \"levels\" lists the coarser meshes");
   });
+  optional(j, path, "calibrate", [&](const auto& v, const auto& p) { m.calibrate = boolean(v, p); });
   optional(j, path, "faces", [&](const auto& v, const auto& p) {
     if (!m.coarser.empty()) fail(p, "not used when \"levels\" lists the coarser meshes");
     if (static_cast<long long>(array(v, p).size()) != m.levels - 1)
