@@ -98,11 +98,22 @@ struct TimeStepDef {
   bool adapt = true;
 };
 
+// A static obstacle: the solid half-space below a plane, which free nodes of every body may not
+// enter (a floor, a table, a wall). After each (sub-)step a node found inside is put back onto
+// the plane and loses its velocity into it (inelastic), and with friction some of its sliding
+// velocity (Coulomb). Not a contact between bodies.
+struct ObstacleDef {
+  Vec3d point{0, 0, 0};   // m, a point of the plane
+  Vec3d normal{0, 0, 1};  // out of the solid, into the free side; any length > 0 (normalised)
+  double friction = 0;    // Coulomb coefficient mu >= 0 (0: frictionless)
+};
+
 struct WorldDef {
   Vec3d gravity{0, 0, -9.81};   // m/s^2
   Precision precision = Precision::float64;
   int threads = 0;              // 0: all cores the process may use
   TimeStepDef time_step;
+  std::vector<ObstacleDef> obstacles;  // static half-spaces (none by default)
 };
 
 struct ProbeDef {

@@ -111,6 +111,11 @@ class World {
   const std::string& probe_name(int probe) const;
   Vec3d probe_position(int probe) const;  // m, interpolated in the probe's tet
 
+  // Total impulse (N s) the static obstacles (WorldDef::obstacles) have given the nodes of a
+  // body's level since the start: the sum of m (v_after - v_before) over every contact, so that
+  // the body's momentum change is the impulse of gravity, loads and fixed nodes plus this one.
+  Vec3d obstacle_impulse(BodyId body, int level = 0) const;
+
   Energies energies() const;  // see Energies: kinetic is time-centred
   double max_displacement() const;  // m, largest |x - X| over all nodes
   // 64-bit FNV-1a hash of the bits of every position and velocity, in body and level order.

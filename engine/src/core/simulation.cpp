@@ -65,6 +65,12 @@ bool Simulation<T>::step(Executor& exec, double t, double dt, std::string& where
         return false;
       }
 
+      // Static obstacles: nodes that entered one go back onto its surface (kernels/obstacle_passes.hpp).
+      for (const ObstacleDef& o : obstacles) {
+        const HalfSpaceContext<T> hc = half_space_context(L, o);
+        exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { resolve_half_space(hc, r); });
+      }
+
       // Prescribed motion: nodes at rest + offset(t + dt), velocity = offset rate over the step.
       for (MotionState& m : body.motions) {
         const Vec3d o1 = m.offset_at(t + dt);

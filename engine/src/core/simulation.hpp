@@ -42,6 +42,11 @@ template <class T>
 Level<T> build_level(const TetMesh& mesh, const BodyDef& def, double courant, std::vector<MotionState>& motions,
                      Executor& exec);
 
+// Sizes the level's obstacle impulse record and refuses (InputError naming the node) a body
+// whose free nodes start inside one of the (unit-normal) obstacles (obstacles.cpp).
+template <class T>
+void prepare_obstacles(Level<T>& level, const std::vector<ObstacleDef>& obstacles, const std::string& body);
+
 // ---- the stable step (stable_step.cpp) ----
 // 2 c_p / h_min (rad/s): the highest frequency of a mesh of smallest altitude h_min (m) as the
 // classic Courant estimate has it (not a bound: Kuhn meshes go 22% above it).
@@ -68,6 +73,7 @@ class Simulation {
   std::vector<SimBody<T>> bodies;
   std::vector<ProbeState> probes;
   T gravity[3] = {0, 0, 0};
+  std::vector<ObstacleDef> obstacles;  // static half-spaces, unit normals (World checks them)
 
   // One step of size dt from time t for every body and level. Returns false (and fills
   // `where`) if a free node's state became non-finite.

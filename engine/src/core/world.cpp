@@ -19,6 +19,31 @@ template <class T>
 void cauchy_stress(Executor& exec, const Level<T>& L, std::vector<double>& sigma9);
 }
 
+namespace {
+
+// The obstacles with unit normals (World's constructor has checked them).
+std::vector<ObstacleDef> unit_obstacles(std::vector<ObstacleDef> obstacles) {
+  for (ObstacleDef& o : obstacles) {
+    const double n = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2]);
+    for (double& c : o.normal) c /= n;
+  }
+  return obstacles;
+}
+
+void check_obstacles(const std::vector<ObstacleDef>& obstacles) {
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    const ObstacleDef& o = obstacles[i];
+    bool finite = std::isfinite(o.friction);
+    for (int k = 0; k < 3; ++k) finite = finite && std::isfinite(o.point[k]) && std::isfinite(o.normal[k]);
+    if (!finite) throw InputError(fmt::format("obstacles[{}]: point, normal and friction must be finite", i));
+    const double n2 = o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2];
+    if (!(n2 > 1e-300)) throw InputError(fmt::format("obstacles[{}]: the plane's normal must not be [0, 0, 0]", i));
+    if (!(o.friction >= 0)) throw InputError(fmt::format("obstacles[{}]: friction must be >= 0, got {}", i, o.friction));
+  }
+}
+
+}  // namespace
+
 struct World::Impl {
   WorldDef def;
   Executor exec;
@@ -41,6 +66,7 @@ struct World::Impl {
       sim.emplace<detail::Simulation<double>>();
     std::visit([&](auto& s) {
       for (int k = 0; k < 3; ++k) s.gravity[k] = static_cast<std::remove_reference_t<decltype(s.gravity[0])>>(d.gravity[k]);
+      s.obstacles = unit_obstacles(d.obstacles);
     }, sim);
   }
 
@@ -140,6 +166,7 @@ World::World(const WorldDef& def) {
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(def.gravity[k])) throw InputError("gravity must be 3 finite numbers");
   if (def.threads < 0) throw InputError(fmt::format("threads must be >= 0 (0 = all cores), got {}", def.threads));
+  check_obstacles(def.obstacles);
   impl_ = std::make_unique<Impl>(def);
 }
 World::~World() = default;
@@ -232,6 +259,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     detail::SimBody<T> b;
     b.def = def;
     b.levels.push_back(detail::build_level<T>(mesh, def, impl_->def.time_step.courant, b.motions, impl_->exec));
+    detail::prepare_obstacles(b.levels.back(), s.obstacles, def.name);
     s.bodies.push_back(std::move(b));
     s.scratch.reserve(std::max(s.scratch.capacity(), mesh.tet_count()));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
@@ -431,6 +459,17 @@ Vec3d World::probe_position(int p) const {
       for (int k = 0; k < 3; ++k) out[k] += pr.weights[a] * double(L.x[k][n]);
     }
     return out;
+  });
+}
+
+Vec3d World::obstacle_impulse(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    Vec3d J{0, 0, 0};
+    if (!L.obstacle_impulse[0].empty())
+      for (std::size_t n = 0; n < L.node_count; ++n)  // fixed order
+        for (int k = 0; k < 3; ++k) J[k] += L.obstacle_impulse[k][n];
+    return J;
   });
 }
 

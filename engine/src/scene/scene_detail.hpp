@@ -16,7 +16,7 @@ using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
                                                   "time_step", "bodies", "probes",    "output",
-                                                  "camera"};
+                                                  "camera",    "obstacles"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads"};
@@ -35,6 +35,8 @@ inline constexpr std::string_view kLoadKeys[] = {"region", "force"};
 inline constexpr std::string_view kProbeKeys[] = {"name", "body", "point"};
 inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every", "sheet"};
 inline constexpr std::string_view kCameraKeys[] = {"position", "target", "up", "fov_deg"};
+inline constexpr std::string_view kObstacleKeys[] = {"plane", "friction"};
+inline constexpr std::string_view kPlaneKeys[] = {"point", "normal"};
 
 // Keys starting with "_" or "//" are comments, ignored everywhere.
 inline bool is_comment_key(std::string_view k) {

@@ -210,6 +210,7 @@ class Reader {
   NodalLoadDef load(const Json& j, const std::string& path) const;
   ProbeDef probe(const Json& j, const std::string& path, std::size_t index) const;
   CameraDef camera(const Json& j, const std::string& path) const;
+  ObstacleDef obstacle(const Json& j, const std::string& path) const;
 
   std::string source_;
   fs::path base_dir_;
@@ -267,6 +268,9 @@ SceneDef Reader::scene(const Json& doc) const {
     optional(v, p, "sheet", [&](const auto& x, const auto& q) { s.output.sheet = boolean(x, q); });
   });
   optional(doc, "", "camera", [&](const auto& v, const auto& p) { s.camera = camera(v, p); });
+  optional(doc, "", "obstacles", [&](const auto& v, const auto& path) {
+    for (std::size_t i = 0; i < array(v, path).size(); ++i) s.world.obstacles.push_back(obstacle(v[i], element(path, i)));
+  });
   return s;
 }
 
@@ -290,6 +294,20 @@ CameraDef Reader::camera(const Json& j, const std::string& path) const {
   if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dd * uu))
     fail(field(path, "up"), "is along the view direction (target - position); give a direction across it");
   return c;
+}
+
+ObstacleDef Reader::obstacle(const Json& j, const std::string& path) const {
+  object(j, path, kObstacleKeys);
+  ObstacleDef o;
+  const std::string pp = field(path, "plane");
+  const Json& plane = required(j, path, "plane");
+  object(plane, pp, kPlaneKeys);
+  o.point = vec3(required(plane, pp, "point"), field(pp, "point"));
+  o.normal = vec3(required(plane, pp, "normal"), field(pp, "normal"));
+  if (!(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2] > 0))
+    fail(field(pp, "normal"), "must not be [0, 0, 0] (it points out of the solid, into the free side)");
+  optional(j, path, "friction", [&](const auto& v, const auto& p) { o.friction = non_negative(v, p); });
+  return o;
 }
 
 TimeStepDef Reader::time_step(const Json& j, const std::string& path) const {
