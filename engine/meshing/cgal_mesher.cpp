@@ -239,7 +239,7 @@ SurfaceMesh read_closed_surface(const std::string& file) {
 
 bool meshing_available() { return true; }
 
-TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size) {
+TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size, bool repair) {
   const std::string file = surface.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(surface, ec))

@@ -72,6 +72,8 @@ struct MeshSourceDef {
   double cell_size = 0;
   // implicit: name of a shipped shape ("organ", ...)
   std::string shape;
+  // surface: a surface that does not bound a volume is repaired first (meshing.hpp, repair_surface)
+  bool repair = false;
   // applied after loading, to any kind: x <- scale * x + translate
   double scale = 1.0;
   Vec3d translate{0, 0, 0};

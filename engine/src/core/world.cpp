@@ -184,7 +184,7 @@ TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std:
   switch (src.kind) {
     case MeshSourceDef::Kind::box: mesh = make_box_mesh(src.min, src.max, src.cells, src.tets_per_cell); break;
     case MeshSourceDef::Kind::file: mesh = read_tet_mesh(src.path, &rep); break;
-    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size); break;
+    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size, src.repair); break;
     case MeshSourceDef::Kind::implicit: mesh = mesh_implicit_shape(src.shape, src.cell_size); break;
   }
   if (!(src.scale > 0 && std::isfinite(src.scale)))

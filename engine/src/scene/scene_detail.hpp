@@ -21,7 +21,7 @@ inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep",
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
-                                                 "cell_size", "scale", "translate"};
+                                                 "cell_size", "scale", "translate", "repair"};
 inline constexpr std::string_view kMeshBoxKeys[] = {"min", "max", "cells", "tets_per_cell"};
 inline constexpr std::string_view kMaterialKeys[] = {"young", "poisson", "density", "damping"};
 inline constexpr std::string_view kDampingKeys[] = {"mass", "stiffness", "bulk_viscosity",

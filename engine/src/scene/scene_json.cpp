@@ -392,6 +392,10 @@ MeshSourceDef Reader::mesh(const Json& j, const std::string& path) const {
     m.cell_size = positive(required(j, path, "cell_size"), field(path, "cell_size"));
   else if (j.contains("cell_size"))
     fail(field(path, "cell_size"), "only used with surface and implicit meshes");
+  if (kind == "surface")
+    optional(j, path, "repair", [&](const auto& x, const auto& q) { m.repair = boolean(x, q); });
+  else if (j.contains("repair"))
+    fail(field(path, "repair"), "only used with surface meshes");
   optional(j, path, "scale", [&](const auto& x, const auto& q) { m.scale = positive(x, q); });
   optional(j, path, "translate", [&](const auto& x, const auto& q) { m.translate = vec3(x, q); });
   return m;
