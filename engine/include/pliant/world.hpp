@@ -83,6 +83,12 @@ class World {
   // What loading did to the body's mesh: non-tetrahedral cells skipped, inverted tets re-oriented,
   // unused vertices dropped (all zero for a clean mesh).
   const MeshLoadReport& mesh_load_report(BodyId body) const;
+  // For a body read from a volume mesh file: node_map(body)[i] is the engine's node index (the
+  // index into positions(), level 0) of the file's i-th node, counted from 0 in the order the
+  // file lists them (a Gmsh file's n-th node, whatever its id), or -1 when no tet uses it (not
+  // loaded). The engine renumbers nodes for memory locality, so file index i is rarely node i.
+  // Empty for other bodies (boxes, meshed surfaces and shapes, meshes given in code).
+  const std::vector<std::int32_t>& node_map(BodyId body) const;
 
   // Zero-copy access to a level's arrays. T must match the world's precision (else InputError).
   // Positions and velocities may be written between steps (initial conditions); sizes must not change.

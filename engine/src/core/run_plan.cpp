@@ -248,6 +248,11 @@ RunPlan plan_run(const World& world, const SceneDef& scene, const RunOptions& op
     if (!already_warned(plan.warnings, w)) plan.warnings.push_back(std::move(w));
 
   plan.outputs.push_back("summary.json");
+  for (std::size_t b = 0; b < world.body_count(); ++b)
+    if (!world.node_map(BodyId(b)).empty()) {
+      plan.outputs.push_back("node_map.csv");
+      break;
+    }
   if (world.probe_count() > 0) plan.outputs.push_back("probes.csv");
   if (scene.output.vtu_every > 0) {
     const auto frames = std::int64_t(std::floor(plan.duration / scene.output.vtu_every + 1e-9)) + 1;

@@ -81,6 +81,19 @@ class VtuSeries {
   int frame_ = 0;
 };
 
+void write_node_map(const fs::path& path, const World& w) {
+  std::FILE* f = std::fopen(path.string().c_str(), "w");
+  if (!f) throw InputError(fmt::format("{}: cannot write", path.string()));
+  std::fputs("body,file_node,node\n", f);
+  for (std::size_t b = 0; b < w.body_count(); ++b) {
+    const std::string& name = w.body_def(BodyId(b)).name;
+    const auto& map = w.node_map(BodyId(b));
+    for (std::size_t i = 0; i < map.size(); ++i) fmt::print(f, "{},{},{}\n", name, i, map[i]);
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) throw InputError(fmt::format("{}: cannot write", path.string()));
+}
+
 void write_summary(const fs::path& path, const RunSummary& s) {
   nlohmann::ordered_json j;
   j["status"] = s.status;
@@ -149,6 +162,14 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
   }
   const std::int64_t total_steps = steps_for(duration, world.dt());
+
+  // The file's node numbers -> the engine's (the .vtu files use the engine's), for file meshes.
+  bool any_map = false;
+  for (std::size_t b = 0; b < world.body_count(); ++b) any_map |= !world.node_map(BodyId(b)).empty();
+  if (options.write_files && any_map) {
+    write_node_map(options.out_dir / "node_map.csv", world);
+    s.files.push_back("node_map.csv");
+  }
 
   ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");

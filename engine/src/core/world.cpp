@@ -125,6 +125,7 @@ struct World::Impl {
   static constexpr int kMaxAdaptiveSubsteps = 256;
   int checks_wanting_fewer = 0;
   std::vector<MeshLoadReport> load_reports;  // per body: what loading fixed in its mesh
+  std::vector<std::vector<std::int32_t>> node_maps;  // per body: file vertex -> node (World::node_map)
   void adapt_substeps() {
     stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
     max_stiffness_ratio = std::max(max_stiffness_ratio, stiffness_ratio);
@@ -236,11 +237,25 @@ BodyId World::add_body(const BodyDef& def) {
   const BodyId id = mapped ? add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh))
                            : add_body(def, std::move(mesh));
   if (mapped) impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
+  if (def.mesh.kind == MeshSourceDef::Kind::file) {  // the file's numbering -> the engine's
+    std::vector<std::int32_t>& map = impl_->node_maps[std::size_t(id)];
+    const std::size_t loaded = impl_->visit([&](auto& s) { return s.bodies[std::size_t(id)].levels.back().node_count; });
+    map.resize(read.vertex_map.empty() ? loaded : read.vertex_map.size());
+    for (std::size_t i = 0; i < map.size(); ++i) {
+      const std::int32_t j = read.vertex_map.empty() ? std::int32_t(i) : read.vertex_map[i];
+      map[i] = j < 0 ? -1 : old_to_new.empty() ? j : old_to_new[std::size_t(j)];
+    }
+  }
   MeshLoadReport& r = impl_->load_reports[std::size_t(id)];
   r.skipped_cells += read.skipped_cells;
   r.reoriented_tets += read.reoriented_tets;
   r.dropped_vertices += read.dropped_vertices;
   return id;
+}
+
+const std::vector<std::int32_t>& World::node_map(BodyId body) const {
+  if (body < 0 || std::size_t(body) >= impl_->node_maps.size()) throw InputError(fmt::format("no body with id {}", body));
+  return impl_->node_maps[std::size_t(body)];
 }
 
 const MeshLoadReport& World::mesh_load_report(BodyId body) const {
@@ -271,6 +286,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     throw;
   }
   impl_->load_reports.push_back(report);
+  impl_->node_maps.emplace_back();
   return id;
 }
 
@@ -304,9 +320,33 @@ int World::add_probe(const ProbeDef& def) {
         for (int a = 0; a < 4; ++a) p.weights[a] = w[a];
       }
     }
-    if (best < -1e-6)
-      throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
-                                   def.point[1], def.point[2], def.body));
+    if (best < -1e-6) {
+      // Say where the body is: its nearest node (and that node's number in the file) and extent.
+      double d2 = 1e300, lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+      std::size_t near = 0;
+      for (std::size_t n = 0; n < L.node_count; ++n) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double x = double(L.X[k][n]), d = x - def.point[k];
+          e += d * d;
+          lo[k] = std::min(lo[k], x);
+          hi[k] = std::max(hi[k], x);
+        }
+        if (e < d2) {
+          d2 = e;
+          near = n;
+        }
+      }
+      std::string file_node;
+      const auto& map = impl_->node_maps[std::size_t(b)];
+      for (std::size_t i = 0; i < map.size(); ++i)
+        if (map[i] == std::int32_t(near)) file_node = fmt::format(" (the file's node {}, counted from 0)", i);
+      throw InputError(fmt::format(
+          "probe '{}': point [{}, {}, {}] is not inside body '{}'; its nearest node is node {}{} at [{:.6g}, {:.6g}, "
+          "{:.6g}], {:.4g} m away (the body spans [{:.6g}, {:.6g}, {:.6g}]..[{:.6g}, {:.6g}, {:.6g}] m)",
+          def.name, def.point[0], def.point[1], def.point[2], def.body, near, file_node, double(L.X[0][near]),
+          double(L.X[1][near]), double(L.X[2][near]), std::sqrt(d2), lo[0], lo[1], lo[2], hi[0], hi[1], hi[2]));
+    }
     s.probes.push_back(p);
     return int(s.probes.size()) - 1;
   });
