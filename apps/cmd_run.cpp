@@ -26,7 +26,8 @@ namespace fs = std::filesystem;
 struct PictureOptions {
   std::optional<double> png_every;
   bool sheet = false, mp4 = false;
-  std::string field = "displacement", size = "1280x720", camera = "scene";
+  std::string field = "displacement", size = "1280x720", camera = "scene", up;
+  std::optional<double> azimuth, elevation;  // degrees
 };
 
 void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool quiet) {
@@ -81,6 +82,8 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   ro.width = size[0];
   ro.height = size[1];
   ro.camera = raster::parse_camera_preset(pic.camera, "--camera");
+  if (!pic.up.empty()) ro.up = raster::parse_direction(pic.up, "--up");
+  set_view(ro.azimuth_deg, ro.elevation_deg, pic.azimuth, pic.elevation);
   std::optional<raster::FrameRecorder> recorder;
   if (!dry_run && (ro.png_every > 0 || ro.sheet || ro.mp4)) {
     recorder.emplace(scene, ro, duration.value_or(scene.duration));
@@ -216,6 +219,7 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--size", o->pic.size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
   run->add_option("--camera", o->pic.camera, "scene (the scene's camera block, else auto), auto, front, side or top")
       ->capture_default_str();
+  add_view_options(run, o->pic.up, o->pic.azimuth, o->pic.elevation);
   return {run, [o] {
             return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->dry_run, o->repair,
                                o->progress_every, o->pic);

@@ -154,6 +154,13 @@ View auto_view(const RenderOptions& o, const Bounds& in, const Layout& L, const 
       d = (e1 * std::sin(az) - e2 * std::cos(az)) * std::cos(el) + up * std::sin(el);
     }
   }
+  if (o.azimuth_deg || o.elevation_deg) {  // an explicit view direction (RenderOptions)
+    const double az = o.azimuth_deg.value_or(30) * pi / 180, el = o.elevation_deg.value_or(25) * pi / 180;
+    d = (e1 * std::sin(az) - e2 * std::cos(az)) * std::cos(el) + up * std::sin(el);
+    // Looking (nearly) straight down or up, world up is along the view: the picture's up is then
+    // the ground direction the camera faces (as for the top preset at azimuth 0).
+    cam_up = std::abs(std::cos(el)) < 1e-3 ? e2 * std::cos(az) - e1 * std::sin(az) : up;
+  }
   d = normalized(d);
   View v;
   v.fov_deg = 30;
@@ -212,7 +219,7 @@ Camera make_camera(const RenderOptions& o, const Bounds& bounds, const Layout& L
   Camera cam;
   cam.width = L.width;
   cam.height = L.height;
-  if (o.preset == CameraPreset::scene && o.camera) {
+  if (o.preset == CameraPreset::scene && o.camera && !o.azimuth_deg && !o.elevation_deg) {
     cam.view.position = o.camera->position;
     cam.view.target = o.camera->target;
     cam.view.up = o.camera->up;
