@@ -13,7 +13,8 @@ namespace pliant::cli {
 namespace {
 namespace fs = std::filesystem;
 
-int command_mesh(const std::string& input, const std::string& implicit, double cell_size, const std::string& output) {
+int command_mesh(const std::string& input, const std::string& implicit, double cell_size, bool repair,
+                 const std::string& output) {
   TetMesh mesh;
   if (!implicit.empty()) {
     mesh = mesh_implicit_shape(implicit, cell_size);
@@ -23,7 +24,7 @@ int command_mesh(const std::string& input, const std::string& implicit, double c
     for (auto& c : ext) c = char(std::tolower(c));
     if (ext == ".obj" || ext == ".off" || ext == ".stl" || ext == ".ply") {
       if (!(cell_size > 0)) throw InputError("pliant mesh: --cell-size H (m, > 0) is required to mesh a surface");
-      mesh = mesh_surface_file(input, cell_size);
+      mesh = mesh_surface_file(input, cell_size, repair);
     } else {
       mesh = read_tet_mesh(input);  // conversion of a volume mesh
     }
@@ -41,6 +42,7 @@ Command add_mesh_command(CLI::App& app) {
   struct Options {
     std::string input, implicit, output;
     double cell_size = 0;
+    bool repair = false;
   };
   auto o = std::make_shared<Options>();
   auto* mesh = app.add_subcommand(
@@ -48,8 +50,11 @@ Command add_mesh_command(CLI::App& app) {
   mesh->add_option("INPUT", o->input, "Surface (.obj .off .stl .ply) or volume mesh to convert");
   mesh->add_option("--implicit", o->implicit, "A shipped implicit shape instead of a file (organ, sphere, capsule)");
   mesh->add_option("--cell-size", o->cell_size, "Target cell size (m)");
+  mesh->add_flag("--repair", o->repair,
+                 "Repair a surface that does not bound a volume first (CGAL: stitch, orient, fill holes, remove "
+                 "self-intersections)");
   mesh->add_option("-o,--output", o->output, "Output .vtu")->required();
-  return {mesh, [o] { return command_mesh(o->input, o->implicit, o->cell_size, o->output); }};
+  return {mesh, [o] { return command_mesh(o->input, o->implicit, o->cell_size, o->repair, o->output); }};
 }
 
 }  // namespace pliant::cli

@@ -28,10 +28,11 @@ struct SurfaceDiagnosis {
   std::size_t non_manifold_edges = 0;     // edges shared by more than two faces
   std::size_t non_manifold_vertices = 0;  // vertices where separate sheets touch (after the edges are fine)
   std::size_t border_edges = 0;           // edges of one face only (the rims of holes)
-  std::size_t holes = 0;                  // closed loops of border edges
+  std::size_t holes = 0;                  // connected loops of 3 or more border edges
   std::size_t self_intersections = 0;     // pairs of faces that cross (checked on a manifold surface only)
   bool orientable = true;
-  bool closed = false;                    // no border edges, manifold, orientable
+  bool closed = false;                    // no border edges, manifold, orientable (the mesher then
+                                          // removes local self-intersections itself, as far as CGAL can)
   double volume = 0;                      // enclosed volume, when closed (file units cubed)
   // Where the problems are: one line per kind, with a bounding box and up to 3 vertex positions.
   std::vector<std::string> problems;
