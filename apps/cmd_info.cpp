@@ -35,6 +35,13 @@ struct InfoArgs {
   bool repair = false;
 };
 
+// A count to two significant digits: "4300", "12000", "1.3 million".
+std::string two_digits(double n) {
+  const double p = std::pow(10.0, std::floor(std::log10(std::max(n, 1.0))) - 1);
+  const double r = std::max(1.0, std::round(n / p) * p);
+  return r < 1e6 ? fmt::format("{:.0f}", r) : fmt::format("{:.2g} million", r / 1e6);
+}
+
 void print_volume_mesh(const TetMesh& mesh, const InfoArgs& a, const std::string& indent) {
   const MeshQuality q = compute_mesh_quality(mesh);
   fmt::print("{}nodes {}  tets {}  boundary triangles {}\n", indent, q.nodes, q.tets, q.boundary_triangles);
@@ -101,7 +108,8 @@ int info_surface(const InfoArgs& a) {
   }
   const double volume = d.volume * a.scale * a.scale * a.scale;
   const double estimate = kTetsPerCellVolume * volume / std::pow(*a.cell_size, 3);
-  fmt::print("cell size {:g} m: about {:.3g} tets (Mesh_3 gives about 4.3 volume / cell_size^3)\n", *a.cell_size, estimate);
+  fmt::print("cell size {:g} m: about {} tets (Mesh_3 gives about 4.3 volume / cell_size^3)\n", *a.cell_size,
+             two_digits(estimate));
   if (estimate > kMeshAtMost) {
     fmt::print("  not meshed here (more than {:.0f} million tets take minutes): `pliant mesh` does it\n", kMeshAtMost / 1e6);
     return 0;
