@@ -246,6 +246,7 @@ Frame capture(const World& world, Field field, CaptureCache* cache) {
   }
   for (std::size_t p = 0; p < world.probe_count(); ++p)
     f.probes.push_back({world.probe_name(int(p)), world.probe_position(int(p))});
+  for (const ObstacleDef& o : world.obstacles()) f.obstacles.push_back({o.point, o.normal});
   return f;
 }
 

@@ -259,6 +259,38 @@ TEST(Render, TheAxisMarkerShowsTheWorldAxes) {
   EXPECT_FALSE(bluish(plain.get(ox, oy - 10 * s)));
 }
 
+TEST(Render, ObstaclesAreDrawnAsTheFloorTheBodiesRestOn) {
+  // The table-top colour of an obstacle patch (renderer.cpp), unlit.
+  const auto table = [](Rgba c) { return std::abs(c.r - 204) < 6 && std::abs(c.g - 189) < 6 && std::abs(c.b - 163) < 6; };
+  const auto count_table = [&](const Image& img) {
+    std::size_t n = 0;
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x) n += table(img.get(x, y));
+    return n;
+  };
+  Frame f = bent_beam(Field::none);
+  RenderOptions o;
+  o.width = 320;
+  o.height = 180;
+  EXPECT_EQ(count_table(renderer().render(f, o)), 0u);
+  f.obstacles.push_back({{0, 0, -0.2}, {0, 0, 1}});  // a floor under the beam's tip
+  const std::size_t with = count_table(renderer().render(f, o));
+  EXPECT_GT(with, std::size_t(0.1 * 320 * 180));
+  o.grid = false;
+  EXPECT_EQ(count_table(renderer().render(f, o)), 0u);
+  // A world's obstacles are captured with its bodies.
+  WorldDef wd;
+  wd.obstacles.push_back({{0, 0, -1}, {0, 0, 2}, 0.3});
+  World w(wd);
+  BodyDef b;
+  b.name = "box";
+  w.add_body(b);
+  const Frame captured = capture(w, Field::none);
+  ASSERT_EQ(captured.obstacles.size(), 1u);
+  EXPECT_EQ(captured.obstacles[0].point, (Vec3d{0, 0, -1}));
+  EXPECT_EQ(captured.obstacles[0].normal, (Vec3d{0, 0, 1}));  // of unit length
+}
+
 TEST(Render, ScaleBarLabelsReadInTheirUnit) {
   EXPECT_EQ(detail::length_label(2), "2 m");
   EXPECT_EQ(detail::length_label(0.1), "10 cm");

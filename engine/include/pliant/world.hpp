@@ -71,6 +71,7 @@ class World {
   double stiffness_ratio() const;
   double max_stiffness_ratio() const;
   Vec3d gravity() const;           // m/s^2
+  const std::vector<ObstacleDef>& obstacles() const;  // WorldDef::obstacles, normals of unit length
   Precision precision() const;
   int threads() const;
 

@@ -383,6 +383,9 @@ std::int64_t World::adapted_steps() const { return impl_->adapted_steps; }
 double World::stiffness_ratio() const { return impl_->stiffness_ratio; }
 double World::max_stiffness_ratio() const { return impl_->max_stiffness_ratio; }
 Vec3d World::gravity() const { return impl_->def.gravity; }
+const std::vector<ObstacleDef>& World::obstacles() const {
+  return impl_->visit([](auto& s) -> const std::vector<ObstacleDef>& { return s.obstacles; });
+}
 Precision World::precision() const { return impl_->def.precision; }
 int World::threads() const { return impl_->exec.threads(); }
 

@@ -53,12 +53,17 @@ struct ProbeMark {
   std::string name;
   Vec3d position{};  // m
 };
+// A static obstacle (WorldDef::obstacles): drawn as a floor patch under the bodies.
+struct ObstacleMark {
+  Vec3d point{}, normal{0, 0, 1};  // m; normal of unit length, out of the solid
+};
 struct Frame {
   double time = 0;           // s
   bool has_time = true;      // false: a state of unknown time (a mesh file)
   Field field = Field::none;
   std::vector<SurfaceBody> bodies;
   std::vector<ProbeMark> probes;
+  std::vector<ObstacleMark> obstacles;  // drawn instead of the ground grid when there are any
   std::size_t bytes() const;  // memory held by the frame's own arrays
 };
 
@@ -140,6 +145,8 @@ struct RenderOptions {
   std::optional<std::array<double, 2>> range;     // colour range in SI units; default [0, nice max of the frame]
   std::string title;                              // top-left, after the time
   int caption_height = 0;                         // pixels at the top kept free of bodies (for a caption drawn later)
+  // grid: the ground grid under the lowest point, or, when the frame has obstacles, the obstacles
+  // (a patch of each plane with its own grid lines) instead.
   bool colour_bar = true, time_label = true, grid = true, marks = true, probe_labels = true, legend = true;
   bool axes = true;       // an x/y/z axis marker, bottom left: the world axes as the camera sees them
   bool scale_bar = true;  // a bar of a round length (1, 2 or 5 x 10^k m, in m, cm, mm or um), bottom right,
