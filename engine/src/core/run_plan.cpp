@@ -308,7 +308,7 @@ std::vector<std::string> plan_lines(const RunPlan& plan) {
                                              lim->omega_geometric, length_text(lim->h_min))
                                : fmt::format("the Courant estimate 2 c_p/h_min (h_min {}; the measured highest mode is {:.4g} rad/s)",
                                              length_text(lim->h_min), lim->omega_measured));
-    if (lim->stable_dt < undamped * (1 - 1e-9))
+    if (lim->stable_dt < undamped * (1 - 5e-3))  // below half a percent it is not worth a word
       why += fmt::format(", shortened {:.2g}% by damping", 100 * (1 - lim->stable_dt / undamped));
   }
   if (!plan.dt_given)
