@@ -80,6 +80,39 @@ TEST(NodeMap, TheRenumberingIsNotTheIdentityOnARealMesh) {
   for (std::size_t i = 0; i < sorted.size(); ++i) ASSERT_EQ(sorted[i], std::int32_t(i));
 }
 
+TEST(NodeMap, NodeRegionsCountInTheFilesNumberingEvenWhenUnusedNodesAreDropped) {
+  // A file whose first point is in no tet: after it is dropped, the file's node i is the loaded
+  // mesh's node i - 1, and then renumbered. A region listing file nodes must get those points.
+  const std::string path = std::string(::testing::TempDir()) + "/pliant_unused_first.vtk";
+  std::ofstream(path) << "# vtk DataFile Version 3.0\nunused first point\nASCII\nDATASET UNSTRUCTURED_GRID\n"
+                         "POINTS 5 double\n9 9 9\n0 0 0\n1 0 0\n0 1 0\n0 0 1\n"
+                         "CELLS 1 5\n4 1 2 3 4\nCELL_TYPES 1\n10\n";
+  BodyDef b = file_body(path);
+  RegionDef fixed;
+  fixed.kind = RegionDef::Kind::nodes;
+  fixed.nodes = {1, 2, 3};  // the file's (0,0,0), (1,0,0), (0,1,0): the bottom face
+  b.fixed.push_back(fixed);
+  World w;
+  w.add_body(b);
+  const auto& map = w.node_map(0);
+  ASSERT_EQ(map.size(), 5u);
+  EXPECT_EQ(map[0], -1);
+  const Level<double>& L = w.level<double>(0);
+  for (std::size_t i = 1; i < 5; ++i) {
+    const std::size_t n = std::size_t(map[i]);
+    EXPECT_EQ(L.state[n], i <= 3 ? kNodeFixed : kNodeFree) << "file node " << i;
+  }
+  // Listing the unused node is an error that says so.
+  b.fixed[0].nodes = {0, 1};
+  World w2;
+  try {
+    w2.add_body(b);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("body 'part': fixed[0]: node 0 of the file is used by no tetrahedron"));
+  }
+}
+
 TEST(NodeMap, OnlyFileMeshesHaveOne) {
   World w;
   BodyDef b;

@@ -200,8 +200,8 @@ TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std:
   return mesh;
 }
 
-// RegionDef::nodes count in the mesh as loaded (the file's numbering): map them to the
-// renumbered mesh. Indices out of range stay as given, so that the error names them.
+// RegionDef::nodes count in the file's numbering (for file meshes; else the mesher's): map them
+// to the engine's. Indices out of range stay as given, so that the error names them.
 BodyDef with_mapped_node_regions(const BodyDef& def, const std::vector<std::int32_t>& old_to_new) {
   BodyDef out = def;
   auto map = [&](RegionDef& r) {
@@ -213,6 +213,20 @@ BodyDef with_mapped_node_regions(const BodyDef& def, const std::vector<std::int3
   for (auto& p : out.prescribed) map(p.region);
   for (auto& l : out.loads) map(l.region);
   return out;
+}
+
+// A "nodes" region that lists a node of the file which no tet uses (and so was not loaded).
+void check_region_nodes_used(const BodyDef& def, const std::vector<std::int32_t>& file_map) {
+  auto check = [&](const RegionDef& r, const std::string& what) {
+    if (r.kind != RegionDef::Kind::nodes) return;
+    for (auto n : r.nodes)
+      if (n >= 0 && std::size_t(n) < file_map.size() && file_map[std::size_t(n)] < 0)
+        throw InputError(fmt::format("body '{}': {}: node {} of the file is used by no tetrahedron (it was not loaded)",
+                                     def.name, what, n));
+  };
+  for (std::size_t i = 0; i < def.fixed.size(); ++i) check(def.fixed[i], fmt::format("fixed[{}]", i));
+  for (std::size_t i = 0; i < def.prescribed.size(); ++i) check(def.prescribed[i].region, fmt::format("prescribed[{}]", i));
+  for (std::size_t i = 0; i < def.loads.size(); ++i) check(def.loads[i].region, fmt::format("loads[{}]", i));
 }
 
 bool has_node_regions(const BodyDef& def) {
@@ -233,19 +247,23 @@ BodyId World::add_body(const BodyDef& def) {
   std::vector<std::int32_t> old_to_new;
   MeshLoadReport read;  // what the reader skipped or fixed
   TetMesh mesh = build_mesh_mapped(def.mesh, &read, &old_to_new);
-  const bool mapped = !old_to_new.empty() && has_node_regions(def);
-  const BodyId id = mapped ? add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh))
+  // A file's numbering -> the engine's: the reader dropped unused vertices (read.vertex_map),
+  // then the mesh was renumbered for locality (old_to_new). "nodes" regions count in the file's.
+  std::vector<std::int32_t> file_map;
+  if (def.mesh.kind == MeshSourceDef::Kind::file) {
+    file_map.resize(read.vertex_map.empty() ? mesh.node_count() : read.vertex_map.size());
+    for (std::size_t i = 0; i < file_map.size(); ++i) {
+      const std::int32_t j = read.vertex_map.empty() ? std::int32_t(i) : read.vertex_map[i];
+      file_map[i] = j < 0 ? -1 : old_to_new.empty() ? j : old_to_new[std::size_t(j)];
+    }
+    check_region_nodes_used(def, file_map);
+  }
+  const std::vector<std::int32_t>& region_map = file_map.empty() ? old_to_new : file_map;
+  const bool mapped = !region_map.empty() && has_node_regions(def);
+  const BodyId id = mapped ? add_body(with_mapped_node_regions(def, region_map), std::move(mesh))
                            : add_body(def, std::move(mesh));
   if (mapped) impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
-  if (def.mesh.kind == MeshSourceDef::Kind::file) {  // the file's numbering -> the engine's
-    std::vector<std::int32_t>& map = impl_->node_maps[std::size_t(id)];
-    const std::size_t loaded = impl_->visit([&](auto& s) { return s.bodies[std::size_t(id)].levels.back().node_count; });
-    map.resize(read.vertex_map.empty() ? loaded : read.vertex_map.size());
-    for (std::size_t i = 0; i < map.size(); ++i) {
-      const std::int32_t j = read.vertex_map.empty() ? std::int32_t(i) : read.vertex_map[i];
-      map[i] = j < 0 ? -1 : old_to_new.empty() ? j : old_to_new[std::size_t(j)];
-    }
-  }
+  impl_->node_maps[std::size_t(id)] = std::move(file_map);
   MeshLoadReport& r = impl_->load_reports[std::size_t(id)];
   r.skipped_cells += read.skipped_cells;
   r.reoriented_tets += read.reoriented_tets;
