@@ -122,6 +122,40 @@ TEST(RunPlan, AnExplicitStepAboveTheBoundSaysItIsSplit) {
   EXPECT_THAT(all_text(plan_lines(plan)), HasSubstr(fmt::format("each step split into {} sub-steps", plan.substeps)));
 }
 
+TEST(RunPlan, ProgressCountsSubStepsAndStartsWithTheEstimate) {
+  // An explicit step above the bound split into sub-steps: the progress reports count them (the
+  // ETA is per sub-step), the first report is the estimate, then reports follow every
+  // progress_every seconds of wall time (both shortened here: 1k tets, about 0.1 s of stepping).
+  SceneDef s = box_scene({0.2, 0.05, 0.05}, 0.1);
+  s.bodies[0].mesh.cells = {16, 4, 4};
+  s.world.time_step.substep = true;
+  s.world.time_step.adapt = false;
+  World probe = make_world(s);
+  s.world.time_step.dt = 3.5 * probe.stable_dt();  // 4 sub-steps per step
+  World w = make_world(s);
+  ASSERT_EQ(w.substeps(), 4);
+  std::vector<RunProgress> reports;
+  RunOptions o;
+  o.write_files = false;
+  o.progress_every = 0.002;
+  o.estimate_after = 0.005;
+  o.on_progress = [&](const RunProgress& p) { reports.push_back(p); };
+  const RunSummary r = run_world(s, w, o);
+  ASSERT_GE(reports.size(), 2u) << "stepping took " << r.wall_time_s << " s";  // measured: 0.05 s, 20 reports
+  EXPECT_TRUE(reports[0].estimate);
+  EXPECT_GE(reports[0].wall_s, o.estimate_after);
+  for (std::size_t i = 0; i < reports.size(); ++i) {
+    const RunProgress& p = reports[i];
+    EXPECT_EQ(p.estimate, i == 0);
+    EXPECT_EQ(p.substeps, 4);
+    EXPECT_EQ(p.substeps_done, 4 * p.step);
+    EXPECT_EQ(p.steps, r.steps);
+    EXPECT_LT(p.step, p.steps);
+    EXPECT_GT(p.eta_s, 0);
+    if (i > 0) EXPECT_GT(p.step, reports[i - 1].step);
+  }
+}
+
 TEST(RunPlan, MoreThanTenMillionStepsIsWarnedAbout) {
   const SceneDef s = box_scene({0.2, 0.05, 0.05}, 1e4);  // 10^4 s at dt ~ 2e-4 s: 4.5e7 steps
   World w = make_world(s);

@@ -33,9 +33,10 @@ struct RunOptions {
   std::optional<Precision> precision;      // override the scene's
   std::optional<double> duration;          // override the scene's (s)
   // Progress: on_progress is called once when the first steps have been timed (at least 2 steps
-  // and kEstimateAfter s of wall time, RunProgress::estimate set), then about every
+  // and estimate_after s of wall time, RunProgress::estimate set), then about every
   // `progress_every` wall seconds (0: only the estimate). It must not change the world.
   double progress_every = 0;               // s of wall time
+  double estimate_after = 0.3;             // s of wall time of stepping before the estimate (kEstimateAfter)
   std::function<void(const RunProgress&)> on_progress;
   bool write_files = true;                 // false: compute only (tests, studies)
   // Called on the initial state and then every `frame_every` simulated seconds (0: never), for

@@ -205,7 +205,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
       }
       if (options.on_progress && i + 1 < total_steps) {
         const double wall = clock.wall();
-        if (!estimated && i >= 1 && wall >= kEstimateAfter) {
+        if (!estimated && i >= 1 && wall >= options.estimate_after) {
           estimated = true;
           RunProgress p = clock.progress(total_steps, world.substeps(), world.time(), duration);
           p.estimate = true;
