@@ -144,7 +144,8 @@ void fill_body(const World& world, BodyId b, BodyPlan& p) {
 std::string count_text(double n) {
   if (n < 1e4) return fmt::format("{:.0f}", n);
   if (n < 1e6) return fmt::format("{:.0f}k", n / 1e3);
-  return fmt::format("{:.3g} million", n / 1e6);
+  if (n < 1e9) return fmt::format("{:.3g} million", n / 1e6);
+  return fmt::format("{:.2g}", n);
 }
 
 std::string seconds_text(double s) {
