@@ -24,8 +24,8 @@ struct LevelOptions {
   std::string faces;  // "30,130,550"
 };
 
-int command_mesh(const std::string& input, const std::string& implicit, double cell_size, const std::string& output,
-                 const LevelOptions& lo) {
+int command_mesh(const std::string& input, const std::string& implicit, double cell_size, bool repair,
+                 const std::string& output, const LevelOptions& lo) {
   const auto start = std::chrono::steady_clock::now();
   TetMesh mesh;
   if (!implicit.empty()) {
@@ -36,7 +36,7 @@ int command_mesh(const std::string& input, const std::string& implicit, double c
     for (auto& c : ext) c = char(std::tolower(c));
     if (ext == ".obj" || ext == ".off" || ext == ".stl" || ext == ".ply") {
       if (!(cell_size > 0)) throw InputError("pliant mesh: --cell-size H (m, > 0) is required to mesh a surface");
-      mesh = mesh_surface_file(input, cell_size);
+      mesh = mesh_surface_file(input, cell_size, repair);
     } else {
       mesh = read_tet_mesh(input);  // conversion of a volume mesh
     }
@@ -79,6 +79,7 @@ Command add_mesh_command(CLI::App& app) {
   struct Options {
     std::string input, implicit, output;
     double cell_size = 0;
+    bool repair = false;
     LevelOptions levels;
   };
   auto o = std::make_shared<Options>();
@@ -87,6 +88,9 @@ Command add_mesh_command(CLI::App& app) {
   mesh->add_option("INPUT", o->input, "Surface (.obj .off .stl .ply) or volume mesh to convert");
   mesh->add_option("--implicit", o->implicit, "A shipped implicit shape instead of a file (organ, sphere, capsule)");
   mesh->add_option("--cell-size", o->cell_size, "Target cell size (m)");
+  mesh->add_flag("--repair", o->repair,
+                 "Repair a surface that does not bound a volume first (CGAL: stitch, orient, fill holes, remove "
+                 "self-intersections)");
   mesh->add_option("-o,--output", o->output, "Output .vtu")->required();
   mesh->add_option("--levels", o->levels.levels,
                    "Also make the coarser levels of a multiresolution hierarchy (OUTPUT_L0.vtu .. ) and print them");
@@ -94,7 +98,7 @@ Command add_mesh_command(CLI::App& app) {
       ->capture_default_str();
   mesh->add_option("--faces", o->levels.faces,
                    "Triangles of each coarser level's surface, coarse to fine, e.g. 30,130,550 (sets the levels)");
-  return {mesh, [o] { return command_mesh(o->input, o->implicit, o->cell_size, o->output, o->levels); }};
+  return {mesh, [o] { return command_mesh(o->input, o->implicit, o->cell_size, o->repair, o->output, o->levels); }};
 }
 
 }  // namespace pliant::cli

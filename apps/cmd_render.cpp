@@ -23,9 +23,23 @@ namespace {
 namespace fs = std::filesystem;
 
 struct RenderArgs {
-  std::string input, output, field, size = "1280x720", camera = "scene", rest;
+  std::string input, output, field, size = "1280x720", camera = "scene", rest, up;
+  std::optional<double> azimuth, elevation;  // degrees
   bool quiet = false;
 };
+
+}  // namespace
+
+void set_view(std::optional<double>& azimuth_out, std::optional<double>& elevation_out, std::optional<double> azimuth,
+              std::optional<double> elevation) {
+  if (azimuth && !std::isfinite(*azimuth)) throw InputError(fmt::format("--azimuth must be finite (degrees), got {}", *azimuth));
+  if (elevation && !(*elevation >= -90 && *elevation <= 90))
+    throw InputError(fmt::format("--elevation must be in [-90, 90] (degrees), got {}", *elevation));
+  azimuth_out = azimuth;
+  elevation_out = elevation;
+}
+
+namespace {
 
 int command_render(const RenderArgs& a) {
   std::string ext = fs::path(a.input).extension().string();
@@ -36,6 +50,7 @@ int command_render(const RenderArgs& a) {
   ro.height = size[1];
   ro.preset = raster::parse_camera_preset(a.camera, "--camera");
   ro.title = fs::path(a.input).filename().string();
+  set_view(ro.azimuth_deg, ro.elevation_deg, a.azimuth, a.elevation);
   std::optional<raster::Field> field;
   if (!a.field.empty()) field = raster::parse_field(a.field, "--field");
   const fs::path out = a.output.empty() ? fs::path(a.input).stem().concat(".png") : fs::path(a.output);
@@ -48,11 +63,13 @@ int command_render(const RenderArgs& a) {
     const Vec3d g = scene.world.gravity;
     const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
     if (gn > 0) ro.up = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+    if (!a.up.empty()) ro.up = raster::parse_direction(a.up, "--up");
     RunOptions run;
     run.threads = 1;  // building the world only: no stepping
     const World world = make_world(scene, run);
     frame = raster::capture(world, field.value_or(raster::Field::none));
   } else {
+    if (!a.up.empty()) ro.up = raster::parse_direction(a.up, "--up");
     const TetMesh mesh = read_tet_mesh(a.input);
     std::optional<TetMesh> rest;
     if (!a.rest.empty()) rest = read_tet_mesh(a.rest);
@@ -75,6 +92,14 @@ int command_render(const RenderArgs& a) {
 
 }  // namespace
 
+void add_view_options(CLI::App* sub, std::string& up, std::optional<double>& azimuth, std::optional<double>& elevation) {
+  sub->add_option("--up", up, "The direction shown upwards: x, y, z, -x, -y, -z or X,Y,Z (default: against gravity; z for a mesh)");
+  sub->add_option("--azimuth", azimuth,
+                  "View direction around the up axis, degrees: 0 from the front (from -y when z is up), 90 from the side "
+                  "(+x); default 30. Overrides --camera's direction and the scene's camera; the view still fits the bodies");
+  sub->add_option("--elevation", elevation, "View elevation above the ground plane, degrees in [-90, 90] (90: from above); default 25");
+}
+
 Command add_render_command(CLI::App& app) {
   auto a = std::make_shared<RenderArgs>();
   auto* sub = app.add_subcommand("render", "Render a scene (rest state) or a volume mesh file (e.g. a .vtu result) to PNG");
@@ -85,6 +110,7 @@ Command add_render_command(CLI::App& app) {
   sub->add_option("--size", a->size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
   sub->add_option("--camera", a->camera, "scene (the scene's camera block, else auto), auto, front, side or top")
       ->capture_default_str();
+  add_view_options(sub, a->up, a->azimuth, a->elevation);
   sub->add_option("--rest", a->rest, "For a mesh: its rest state (same nodes), to colour by displacement when the file stores none");
   sub->add_flag("--quiet,-q", a->quiet, "Print nothing");
   return {sub, [a] { return command_render(*a); }};

@@ -1,9 +1,14 @@
 // `pliant run SCENE`: runs a scene file to its end and writes its results; with --png-every,
 // --sheet or --mp4 (or "output": {"sheet": true} in the scene) also pictures of the run, taken
-// by raster::FrameRecorder through the runner's read-only frame callback.
+// by raster::FrameRecorder through the runner's read-only frame callback. Before stepping it
+// prints the plan (run_plan.hpp: sizes, the step and why, steps, files, warnings about likely
+// unit mistakes, then the wall-time estimate once the first steps are timed); --dry-run prints
+// the plan with a warm-up estimate and stops. Progress: a line rewritten in place on a terminal,
+// else a line every few seconds on stderr; --quiet silences both (not the warnings).
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <fmt/format.h>
 #include <optional>
@@ -11,6 +16,7 @@
 #include "commands.hpp"
 #include "pliant/raster/recorder.hpp"
 #include "pliant/run.hpp"
+#include "pliant/run_plan.hpp"
 #include "pliant/scene.hpp"
 
 namespace pliant::cli {
@@ -20,7 +26,8 @@ namespace fs = std::filesystem;
 struct PictureOptions {
   std::optional<double> png_every;
   bool sheet = false, mp4 = false;
-  std::string field = "displacement", size = "1280x720", camera = "scene";
+  std::string field = "displacement", size = "1280x720", camera = "scene", up;
+  std::optional<double> azimuth, elevation;  // degrees
 };
 
 void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool quiet) {
@@ -29,10 +36,26 @@ void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool 
   for (const auto& n : r.notes) fmt::print(stderr, "pliant: note: {}\n", n);
 }
 
+std::string eta_text(double s) {
+  if (s < 10) return fmt::format("{:.1f} s", s);
+  if (s < 120) return fmt::format("{:.0f} s", s);
+  if (s < 7200) return fmt::format("{:.1f} min", s / 60);
+  return fmt::format("{:.1f} h", s / 3600);
+}
+
+std::string progress_text(const RunProgress& p) {
+  return fmt::format("{:5.1f}%  t = {:.4g} / {:.4g} s  step {} / {}{}  {:.0f} steps/s  ETA {}",
+                     100.0 * double(p.step) / double(p.steps), p.time, p.duration, p.step, p.steps,
+                     p.substeps > 1 ? fmt::format(" ({} sub-steps each)", p.substeps) : "",
+                     double(p.step) / std::max(p.wall_s, 1e-9), eta_text(p.eta_s));
+}
+
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
-                const std::string& precision, std::optional<double> duration, bool quiet, const PictureOptions& pic,
-                const std::string& schedule) {
+                const std::string& precision, std::optional<double> duration, bool quiet, bool dry_run, bool repair,
+                double progress_every, const PictureOptions& pic, const std::string& schedule) {
   SceneDef scene = load_scene_file(scene_path);
+  if (repair)
+    for (BodyDef& b : scene.bodies) b.mesh.repair = true;
   RunOptions opt;
   opt.out_dir = out;
   opt.threads = threads;
@@ -43,7 +66,10 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   if (schedule == "staggered") opt.schedule = Schedule::staggered;
   else if (schedule == "naive") opt.schedule = Schedule::naive;
   else if (!schedule.empty()) throw InputError(fmt::format("--schedule must be staggered or naive, got '{}'", schedule));
-  opt.progress = !quiet && isatty(STDERR_FILENO);
+  if (!(progress_every > 0 && std::isfinite(progress_every)))
+    throw InputError(fmt::format("--progress-every must be a finite number > 0 (s), got {}", progress_every));
+  if (duration && !(*duration > 0 && std::isfinite(*duration)))
+    throw InputError(fmt::format("--duration must be a finite number > 0 (s), got {}", *duration));
 
   // Pictures: options are checked before the run starts.
   raster::RecorderOptions ro;
@@ -59,8 +85,10 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   ro.width = size[0];
   ro.height = size[1];
   ro.camera = raster::parse_camera_preset(pic.camera, "--camera");
+  if (!pic.up.empty()) ro.up = raster::parse_direction(pic.up, "--up");
+  set_view(ro.azimuth_deg, ro.elevation_deg, pic.azimuth, pic.elevation);
   std::optional<raster::FrameRecorder> recorder;
-  if (ro.png_every > 0 || ro.sheet || ro.mp4) {
+  if (!dry_run && (ro.png_every > 0 || ro.sheet || ro.mp4)) {
     recorder.emplace(scene, ro, duration.value_or(scene.duration));
     if (recorder->active()) {
       opt.frame_every = recorder->frame_every();
@@ -68,17 +96,73 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     }
   }
 
-  if (!quiet) fmt::print(stderr, "pliant: running {} ...\n", scene_path);
+  // The plan: what the scene says (warnings before any meshing), then the built world.
+  if (!quiet) fmt::print("pliant: {} {}\n", dry_run ? "plan of" : "running", scene_path);
+  std::fflush(stdout);
+  const ScenePreview preview = preview_scene(scene);
+  for (const PlanWarning& w : preview.warnings) fmt::print(stderr, "pliant: warning: {}\n", w.text);
+  if (!quiet)
+    for (const BodyPreview& b : preview.bodies)
+      if (b.needs_meshing) fmt::print("meshing {} ...\n", preview_line(b));
+  std::fflush(stdout);
+  World world = make_world(scene, opt);
+  RunPlan plan = plan_run(world, scene, opt, &preview);
+  if (ro.png_every > 0) plan.outputs.push_back(fmt::format("frames/ (a PNG every {:g} s)", ro.png_every));
+  if (ro.sheet) plan.outputs.push_back("sheet.png");
+  if (ro.mp4) plan.outputs.push_back("movie.mp4");
+  if (dry_run) measure_warm_up(world, plan);
+  const auto print_plan = [&](bool all) {
+    for (const std::string& line : plan_lines(plan)) {
+      if (line.starts_with("warning: ")) {
+        const PlanWarning* seen = nullptr;
+        for (const PlanWarning& w : preview.warnings)
+          if ("warning: " + w.text == line) seen = &w;
+        if (!seen) fmt::print(stderr, "pliant: {}\n", line);
+      } else if (all) {
+        fmt::print("{}\n", line);
+      }
+    }
+    std::fflush(stdout);
+  };
+  print_plan(!quiet);
+  if (dry_run) {
+    if (!quiet) fmt::print("dry run: nothing was written (the files above are what the run would write under {}/)\n", out);
+    return 0;
+  }
+
+  // Progress: rewritten in place on a terminal, else a line every few seconds; the first report
+  // is the plan's estimate.
+  const bool terminal = isatty(STDERR_FILENO);
+  bool progress_shown = false;
+  if (!quiet) {
+    opt.progress_every = terminal ? 0.2 : progress_every;
+    opt.on_progress = [&](const RunProgress& p) {
+      if (p.estimate) {  // the plan's last line; not worth a line when the run is about to end
+        if (p.eta_s >= 1) fmt::print("  {}\n", estimate_line(p.eta_s + p.wall_s, p.step, p.seconds_per_substep));
+        std::fflush(stdout);
+        return;
+      }
+      if (terminal) {
+        fmt::print(stderr, "\r  {}   ", progress_text(p));
+        progress_shown = true;
+      } else {
+        fmt::print(stderr, "pliant: {}\n", progress_text(p));
+      }
+      std::fflush(stderr);
+    };
+  }
   RunSummary s;
   try {
-    s = run_scene(scene, opt);
+    s = run_world(scene, world, opt);
   } catch (const DivergenceError&) {
+    if (progress_shown) fmt::print(stderr, "\n");
     if (recorder && recorder->active()) {  // pictures up to the divergence help to see why
       if (!quiet) fmt::print(stderr, "pliant: rendering the pictures taken before the divergence ...\n");
       report_pictures(recorder->finish(), out, quiet);
     }
     throw;
   }
+  if (progress_shown) fmt::print(stderr, "\r{:100}\r", "");
   if (!quiet) {
     for (const std::string& note : s.notes) fmt::print(stderr, "pliant: note: {}\n", note);
     fmt::print("{} nodes, {} tets ({}, {}), {} threads\n", s.nodes, s.tets, s.model, s.precision, s.threads);
@@ -118,7 +202,8 @@ Command add_run_command(CLI::App& app) {
     std::string scene, out = "out", precision, schedule;
     std::optional<int> threads;
     std::optional<double> duration;
-    bool quiet = false;
+    bool quiet = false, dry_run = false, repair = false;
+    double progress_every = 5;  // s between progress lines when stderr is not a terminal (a log, a CI job)
     PictureOptions pic;
   };
   auto o = std::make_shared<Options>();
@@ -131,7 +216,16 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--schedule", o->schedule,
                   "How multiresolution levels share the ticks: staggered (coarse work in slices, every tick costs "
                   "about the same; the default) or naive (every coarse level on the same tick)");
-  run->add_flag("--quiet,-q", o->quiet, "No progress line and no report");
+  run->add_flag("--quiet,-q", o->quiet, "No plan, no progress and no report (warnings and errors still print)");
+  run->add_option("--progress-every", o->progress_every,
+                  "Seconds between progress lines on stderr when it is not a terminal (on a terminal, one line is rewritten)")
+      ->capture_default_str();
+  run->add_flag("--dry-run", o->dry_run,
+                "Print the plan (sizes, step, steps, files, warnings, and a wall-time estimate from a few timed steps) and stop: "
+                "nothing is written");
+  run->add_flag("--repair", o->repair,
+                "Repair surface meshes that do not bound a volume (stitch, orient, fill holes, remove self-intersections) "
+                "before meshing them");
   run->add_option("--png-every", o->pic.png_every, "Write a picture every S simulated seconds: OUT/frames/frame_NNNNN.png");
   run->add_flag("--sheet", o->pic.sheet, "Write OUT/sheet.png, a contact sheet of the run (pictures with their times)");
   run->add_flag("--mp4", o->pic.mp4, "Assemble OUT/movie.mp4 from the frames (needs ffmpeg; frames every duration/60 unless --png-every)");
@@ -139,8 +233,10 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--size", o->pic.size, "Picture size WIDTHxHEIGHT in pixels")->capture_default_str();
   run->add_option("--camera", o->pic.camera, "scene (the scene's camera block, else auto), auto, front, side or top")
       ->capture_default_str();
+  add_view_options(run, o->pic.up, o->pic.azimuth, o->pic.elevation);
   return {run, [o] {
-            return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->pic, o->schedule);
+            return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->dry_run, o->repair,
+                               o->progress_every, o->pic, o->schedule);
           }};
 }
 

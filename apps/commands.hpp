@@ -4,6 +4,8 @@
 #pragma once
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <optional>
+#include <string>
 
 namespace pliant::cli {
 
@@ -20,5 +22,11 @@ Command add_study_command(CLI::App& app);      // cmd_study.cpp
 Command add_stability_command(CLI::App& app);  // cmd_stability.cpp
 Command add_stress_command(CLI::App& app);     // cmd_stress.cpp
 Command add_render_command(CLI::App& app);     // cmd_render.cpp
+
+// The view options of `pliant render` and `pliant run`'s pictures (cmd_render.cpp): --up,
+// --azimuth, --elevation; and their check (InputError naming the option).
+void add_view_options(CLI::App* sub, std::string& up, std::optional<double>& azimuth, std::optional<double>& elevation);
+void set_view(std::optional<double>& azimuth_out, std::optional<double>& elevation_out, std::optional<double> azimuth,
+              std::optional<double> elevation);
 
 }  // namespace pliant::cli

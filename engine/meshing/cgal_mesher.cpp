@@ -48,6 +48,7 @@
 
 #include "pliant/error.hpp"
 #include "pliant/meshing.hpp"
+#include "surface_soup.hpp"
 
 namespace pliant {
 namespace {
@@ -145,38 +146,6 @@ TetMesh finalized(TetMesh mesh, const std::string& what) {
   return mesh;
 }
 
-// Fallback for .obj files that CGAL's strict reader refuses because of a line it does not
-// know (the SOFA raptor_8kp.obj ends with a NUL byte): keeps "v" and "f" lines, ignores the
-// rest. Returns false if a face index is out of range or nothing was read.
-bool read_obj_leniently(const std::string& file, std::vector<Point>& points,
-                        std::vector<std::vector<std::size_t>>& faces) {
-  points.clear();
-  faces.clear();
-  std::ifstream in(file);
-  std::string line, key;
-  while (std::getline(in, line)) {
-    std::istringstream ls(line);
-    if (!(ls >> key)) continue;
-    if (key == "v") {
-      double x, y, z;
-      if (!(ls >> x >> y >> z)) return false;
-      points.emplace_back(x, y, z);
-    } else if (key == "f") {
-      std::vector<std::size_t>& f = faces.emplace_back();
-      std::string corner;
-      while (ls >> corner) {  // "i", "i/t", "i//n" or "i/t/n"; negative i counts from the end
-        const long i = std::strtol(corner.c_str(), nullptr, 10);
-        const long n = static_cast<long>(points.size());
-        const long k = i < 0 ? n + i : i - 1;
-        if (i == 0 || k < 0 || k >= n) return false;
-        f.push_back(static_cast<std::size_t>(k));
-      }
-      if (f.size() < 3) return false;
-    }
-  }
-  return !points.empty() && !faces.empty();
-}
-
 // Reads a polygon surface and checks that it bounds a volume. These are the steps of
 // CGAL::IO::read_polygon_mesh (read a soup, repair, orient, convert), done one by one so that a
 // failure can say what is wrong with the file. Local self-intersections (as in the SOFA
@@ -185,21 +154,11 @@ SurfaceMesh read_closed_surface(const std::string& file) {
   const auto fail = [&](const std::string& what) {
     return InputError(fmt::format("surface file '{}': {}", file, what));
   };
-  std::error_code ec;
-  if (std::filesystem::file_size(file, ec) == 0 && !ec) throw fail("empty file");
-  std::string ext = std::filesystem::path(file).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  if (ext != ".obj" && ext != ".off" && ext != ".stl" && ext != ".ply")
-    throw fail("unsupported extension '" + ext + "' (surface files: .obj, .off, .stl, .ply)");
+  const meshing_detail::SurfaceSoup soup = meshing_detail::read_surface_soup(file);
   std::vector<Point> points;
-  std::vector<std::vector<std::size_t>> faces;
-  if (!CGAL::IO::read_polygon_soup(file, points, faces) &&
-      !(ext == ".obj" && read_obj_leniently(file, points, faces)))
-    throw fail("unreadable (not a valid .obj, .off, .stl or .ply surface, or no faces)");
-  if (faces.empty()) throw fail("empty (no faces)");
-  for (const Point& p : points)
-    if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z()))
-      throw fail("non-finite vertex coordinate");
+  points.reserve(soup.points.size());
+  for (const auto& p : soup.points) points.emplace_back(p[0], p[1], p[2]);
+  std::vector<std::vector<std::size_t>> faces = soup.faces;
 
   PMP::repair_polygon_soup(points, faces);  // merges duplicate points (STL), drops degenerate faces
   if (faces.empty()) throw fail("empty (all faces are degenerate)");
@@ -241,6 +200,46 @@ SurfaceMesh read_closed_surface(const std::string& file) {
 
 }  // namespace
 
+// read_closed_surface, with the diagnosis of a surface that does not bound a volume (where its
+// holes, non-manifold edges and self-intersections are) and what to do about it.
+SurfaceMesh read_closed_surface_or_explain(const std::string& file) {
+  try {
+    return read_closed_surface(file);
+  } catch (const InputError& e) {
+    SurfaceDiagnosis d;
+    try {
+      d = diagnose_surface(file);
+    } catch (const InputError&) {
+      throw e;  // unreadable: the first message says it all
+    }
+    if (d.problems.empty()) throw;
+    std::string msg = std::string(e.what()) + "; what is wrong with it:";
+    for (const std::string& p : d.problems) msg += "\n    " + p;
+    msg += "\n  (`pliant info FILE` shows this; \"repair\": true in the scene's mesh, or --repair, tries CGAL's repair)";
+    throw InputError(msg);
+  }
+}
+
+// The surface after repair_surface, if it bounds a volume now.
+SurfaceMesh repaired_closed_surface(const std::filesystem::path& surface) {
+  const RepairedSurface r = repair_surface(surface);
+  std::string did;
+  for (const std::string& s : r.steps) did += (did.empty() ? "" : "; ") + s;
+  if (!r.after.bounds_volume()) {
+    std::string msg = fmt::format("surface file '{}': the repair ({}) did not make it bound a volume; still:",
+                                  surface.string(), did);
+    for (const std::string& p : r.after.problems) msg += "\n    " + p;
+    throw InputError(msg);
+  }
+  std::vector<Point> points;
+  for (std::size_t i = 0; i + 2 < r.points.size(); i += 3) points.emplace_back(r.points[i], r.points[i + 1], r.points[i + 2]);
+  std::vector<std::vector<std::size_t>> faces;
+  for (const auto& t : r.triangles) faces.push_back({std::size_t(t[0]), std::size_t(t[1]), std::size_t(t[2])});
+  SurfaceMesh sm;
+  PMP::polygon_soup_to_polygon_mesh(points, faces, sm);
+  return sm;
+}
+
 bool meshing_available() { return true; }
 
 namespace {
@@ -280,13 +279,13 @@ TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& 
 
 }  // namespace
 
-TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size) {
+TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size, bool repair) {
   const std::string file = surface.string();
   std::error_code ec;
   if (!std::filesystem::is_regular_file(surface, ec))
     throw InputError(fmt::format("surface file '{}': no such file", file));
   if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, "'" + file + "'");
-  SurfaceMesh sm = read_closed_surface(file);
+  SurfaceMesh sm = repair ? repaired_closed_surface(surface) : read_closed_surface_or_explain(file);
   return mesh_inside(sm, cell_size, "'" + file + "'");
 }
 

@@ -17,8 +17,18 @@ namespace {
 
 bool meshing_available() { return false; }
 
-TetMesh mesh_surface_file(const std::filesystem::path& surface, double /*cell_size*/) {
+TetMesh mesh_surface_file(const std::filesystem::path& surface, double /*cell_size*/, bool /*repair*/) {
   no_cgal("surface file '" + surface.string() + "'");
+}
+
+SurfaceDiagnosis diagnose_surface(const std::filesystem::path& surface) {
+  throw InputError("this pliant was built without CGAL (PLIANT_WITH_CGAL=OFF): cannot read surface file '" +
+                   surface.string() + "'");
+}
+
+RepairedSurface repair_surface(const std::filesystem::path& surface) {
+  throw InputError("this pliant was built without CGAL (PLIANT_WITH_CGAL=OFF): cannot repair surface file '" +
+                   surface.string() + "'");
 }
 
 TetMesh mesh_implicit_shape(const std::string& name, double /*cell_size*/) {

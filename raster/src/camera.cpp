@@ -95,6 +95,32 @@ Grid make_grid(const Bounds& in, const Vec3d& up_in) {
   return g;
 }
 
+Grid make_plane_grid(const Bounds& in, const Vec3d& point, const Vec3d& normal) {
+  const Bounds b = usable_bounds(in);
+  const V3 n = normalized(V3(normal)), p0(point);
+  Grid g;
+  plane_axes(n, g.e1, g.e2);
+  V3 c[8];
+  corners(b, c);
+  double a0 = 1e300, a1 = -1e300, b0 = 1e300, b1 = -1e300, ext = 0;
+  for (const V3& p : c) {
+    a0 = std::min(a0, dot(p - p0, g.e1));
+    a1 = std::max(a1, dot(p - p0, g.e1));
+    b0 = std::min(b0, dot(p - p0, g.e2));
+    b1 = std::max(b1, dot(p - p0, g.e2));
+  }
+  for (int k = 0; k < 3; ++k) ext = std::max(ext, b.max[k] - b.min[k]);
+  const double extent = std::max({a1 - a0, b1 - b0, ext});
+  g.spacing = nice_number(extent / 8, false);
+  const double pad = std::max(0.35 * extent, 2 * g.spacing);
+  g.a0 = std::floor((a0 - pad) / g.spacing) * g.spacing;
+  g.a1 = std::ceil((a1 + pad) / g.spacing) * g.spacing;
+  g.b0 = std::floor((b0 - pad) / g.spacing) * g.spacing;
+  g.b1 = std::ceil((b1 + pad) / g.spacing) * g.spacing;
+  g.origin = p0;
+  return g;
+}
+
 namespace {
 
 // Column-major 4x4 helpers.
@@ -154,6 +180,13 @@ View auto_view(const RenderOptions& o, const Bounds& in, const Layout& L, const 
       d = (e1 * std::sin(az) - e2 * std::cos(az)) * std::cos(el) + up * std::sin(el);
     }
   }
+  if (o.azimuth_deg || o.elevation_deg) {  // an explicit view direction (RenderOptions)
+    const double az = o.azimuth_deg.value_or(30) * pi / 180, el = o.elevation_deg.value_or(25) * pi / 180;
+    d = (e1 * std::sin(az) - e2 * std::cos(az)) * std::cos(el) + up * std::sin(el);
+    // Looking (nearly) straight down or up, world up is along the view: the picture's up is then
+    // the ground direction the camera faces (as for the top preset at azimuth 0).
+    cam_up = std::abs(std::cos(el)) < 1e-3 ? e2 * std::cos(az) - e1 * std::sin(az) : up;
+  }
   d = normalized(d);
   View v;
   v.fov_deg = 30;
@@ -207,12 +240,12 @@ bool Camera::project(const V3& p, double& px, double& py) const {
   return std::isfinite(px) && std::isfinite(py);
 }
 
-Camera make_camera(const RenderOptions& o, const Bounds& bounds, const Layout& L, const Grid* grid,
+Camera make_camera(const RenderOptions& o, const Bounds& bounds, const Layout& L, const std::vector<Grid>& grids,
                    const std::vector<Vec3d>& fit) {
   Camera cam;
   cam.width = L.width;
   cam.height = L.height;
-  if (o.preset == CameraPreset::scene && o.camera) {
+  if (o.preset == CameraPreset::scene && o.camera && !o.azimuth_deg && !o.elevation_deg) {
     cam.view.position = o.camera->position;
     cam.view.target = o.camera->target;
     cam.view.up = o.camera->up;
@@ -233,11 +266,11 @@ Camera make_camera(const RenderOptions& o, const Bounds& bounds, const Layout& L
   V3 c[8];
   corners(usable_bounds(bounds), c);
   for (const V3& p : c) depth(p);
-  if (grid) {
-    depth(grid->at(grid->a0, grid->b0));
-    depth(grid->at(grid->a1, grid->b0));
-    depth(grid->at(grid->a0, grid->b1));
-    depth(grid->at(grid->a1, grid->b1));
+  for (const Grid& grid : grids) {
+    depth(grid.at(grid.a0, grid.b0));
+    depth(grid.at(grid.a1, grid.b0));
+    depth(grid.at(grid.a0, grid.b1));
+    depth(grid.at(grid.a1, grid.b1));
   }
   depth(target);
   dmax = std::max(dmax, 1e-6);
@@ -260,13 +293,17 @@ Setup make_setup(const Frame& frame, const RenderOptions& o) {
   Setup s;
   s.layout = make_layout(o, frame.field);
   s.framing = o.framing && !o.framing->empty() ? *o.framing : bounds_of(frame);
-  s.grid = make_grid(s.framing, o.up);
+  s.obstacles = !frame.obstacles.empty();
+  if (s.obstacles)
+    for (const ObstacleMark& ob : frame.obstacles) s.grids.push_back(make_plane_grid(s.framing, ob.point, ob.normal));
+  else
+    s.grids.push_back(make_grid(s.framing, o.up));
   // The auto camera fits the given points, else the frame's own surface (not the bounds: the
   // corners of a round body's box reach far beyond it), else the framing box.
   const std::vector<Vec3d> fit = !o.framing_points.empty() ? o.framing_points
                                  : o.framing                ? std::vector<Vec3d>{}
                                                             : framing_sample(frame, 20000);
-  s.camera = make_camera(o, s.framing, s.layout, o.grid ? &s.grid : nullptr, fit);
+  s.camera = make_camera(o, s.framing, s.layout, o.grid ? s.grids : std::vector<Grid>{}, fit);
   return s;
 }
 

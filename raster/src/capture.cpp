@@ -3,6 +3,8 @@
 // the boundary nodes are kept (renumbered), which makes a frame a small fraction of the state.
 // Also: frames of plain meshes, field and camera names, bounds.
 #include <algorithm>
+#include <cctype>
+#include <cstdlib>
 #include <cmath>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -265,6 +267,38 @@ std::array<int, 2> parse_size(std::string_view text, std::string_view what) {
   return {v[0], v[1]};
 }
 
+Vec3d parse_direction(std::string_view text, std::string_view what) {
+  std::string t(text);
+  for (char& c : t) c = char(std::tolower(static_cast<unsigned char>(c)));
+  const bool neg = !t.empty() && t[0] == '-';
+  const std::string axis = neg || (!t.empty() && t[0] == '+') ? t.substr(1) : t;
+  if (axis == "x" || axis == "y" || axis == "z") {
+    Vec3d v{0, 0, 0};
+    v[std::size_t(axis[0] - 'x')] = neg ? -1 : 1;
+    return v;
+  }
+  Vec3d v{};
+  std::size_t pos = 0;
+  int k = 0;
+  bool ok = true;
+  for (; k < 3 && ok; ++k) {
+    const std::size_t end = k < 2 ? t.find(',', pos) : t.size();
+    if (end == std::string::npos) {
+      ok = false;
+      break;
+    }
+    const std::string part = t.substr(pos, end - pos);
+    char* stop = nullptr;
+    v[std::size_t(k)] = std::strtod(part.c_str(), &stop);
+    ok = !part.empty() && stop == part.c_str() + part.size() && std::isfinite(v[std::size_t(k)]);
+    pos = end + 1;
+  }
+  if (!ok || k != 3)
+    throw InputError(fmt::format("{}: expected an axis (x, y, z, -x, -y, -z) or three numbers X,Y,Z; got \"{}\"", what, text));
+  if (!(v[0] * v[0] + v[1] * v[1] + v[2] * v[2] > 0)) throw InputError(fmt::format("{}: must not be 0,0,0", what));
+  return v;
+}
+
 std::size_t Frame::bytes() const {
   std::size_t n = sizeof(Frame);
   for (const auto& b : bodies) n += sizeof(SurfaceBody) + 4 * (b.points.capacity() + b.values.capacity());
@@ -287,6 +321,7 @@ Frame capture(const World& world, Field field, CaptureCache* cache) {
   }
   for (std::size_t p = 0; p < world.probe_count(); ++p)
     f.probes.push_back({world.probe_name(int(p)), world.probe_position(int(p))});
+  for (const ObstacleDef& o : world.obstacles()) f.obstacles.push_back({o.point, o.normal});
   return f;
 }
 

@@ -97,6 +97,8 @@ void draw_overlays(Image& img, const Frame& frame, const RenderOptions& o, const
     draw_text(img, 6 * s, 3 * s, line, ts);
   }
   if (L.colour_bar) draw_colour_bar(img, L.bar_x, L.bar_y, L.bar_w, L.bar_h, frame.field, range, s);
+  if (o.axes) draw_axes(img, L, cam);
+  if (o.scale_bar) draw_scale_bar(img, L, cam);
   if (L.legend) {
     bool fixed = false, driven = false;
     for (const auto& b : frame.bodies) {
@@ -105,6 +107,59 @@ void draw_overlays(Image& img, const Frame& frame, const RenderOptions& o, const
     }
     draw_legend(img, 6 * s, L.height - 12 * s, s, fixed, driven, !frame.probes.empty());
   }
+}
+
+void draw_axes(Image& img, const Layout& L, const Camera& cam) {
+  const int s = L.text_scale;
+  const auto& m = cam.modelview;  // rows: the camera's right, up and backwards directions
+  const V3 right{m[0], m[4], m[8]}, up{m[1], m[5], m[9]}, back{m[2], m[6], m[10]};
+  const double len = 16.0 * s;
+  const double ox = 10.0 * s + len, oy = L.height - (L.legend ? 14.0 * s : 0.0) - 8.0 * s - len;
+  static const Rgba kAxis[3] = {{214, 39, 40, 255}, {44, 160, 44, 255}, {31, 119, 180, 255}};
+  static const char* kName[3] = {"x", "y", "z"};
+  int order[3] = {0, 1, 2};  // axes pointing away from the viewer first, so that nearer ones are on top
+  const V3 axis[3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  std::sort(order, order + 3, [&](int a, int b) { return dot(axis[a], back) < dot(axis[b], back); });
+  img.disc(ox, oy, 1.6 * s, kInk);
+  for (int k : order) {
+    const double dx = dot(axis[k], right), dy = -dot(axis[k], up);  // pixels grow downwards
+    const double ex = ox + len * dx, ey = oy + len * dy;
+    img.line(ox, oy, ex, ey, kAxis[k], 1.5 * s);
+    const double n = std::hypot(dx, dy);
+    const double lx = n > 0.2 ? ex + 4.0 * s * dx / n : ex + 4.0 * s, ly = n > 0.2 ? ey + 4.0 * s * dy / n : ey;
+    draw_text(img, int(lx - text_width(kName[k], s) / 2.0), int(ly - text_height(s) / 2.0), kName[k], {kAxis[k], s, true});
+  }
+}
+
+// "10 cm", "2 m", "500 um": a round length in the unit that reads best.
+std::string length_label(double m) {
+  if (m >= 1) return fmt::format("{:g} m", m);
+  if (m >= 0.01) return fmt::format("{:g} cm", std::round(m * 1e4) / 1e2);
+  if (m >= 1e-3) return fmt::format("{:g} mm", std::round(m * 1e5) / 1e2);
+  return fmt::format("{:g} \u00B5m", std::round(m * 1e8) / 1e2);
+}
+
+void draw_scale_bar(Image& img, const Layout& L, const Camera& cam) {
+  const int s = L.text_scale;
+  // Metres per pixel at the target's depth: the usable part of the image spans the field of view.
+  const V3 eye(cam.view.position), target(cam.view.target);
+  const double dist = norm(target - eye);
+  const double uh = std::max(L.usable_y1 - L.usable_y0, 1);
+  const double m_per_px = dist * 2 * std::tan(cam.view.fov_deg * std::acos(-1.0) / 360) / uh;
+  if (!(m_per_px > 0) || !std::isfinite(m_per_px)) return;
+  // The largest 1, 2 or 5 x 10^k no longer than about a sixth of the width.
+  const double want = L.width / 6.0 * m_per_px;
+  const double p = std::pow(10.0, std::floor(std::log10(want)));
+  const double length = want >= 5 * p ? 5 * p : want >= 2 * p ? 2 * p : p;
+  const double px = length / m_per_px;
+  const std::string label = length_label(length);
+  const int x1 = L.width - 10 * s, x0 = int(std::lround(x1 - px)), y = L.height - 8 * s;
+  const Rgba white{255, 255, 255, 230};
+  img.fill_rect(x0 - s, y - 3 * s, x1 - x0 + 2 * s, 4 * s, white);
+  img.fill_rect(x0, y - 2 * s, x1 - x0, 2 * s, kInk);
+  img.fill_rect(x0, y - 5 * s, std::max(1, s / 2 + 1), 5 * s, kInk);  // end ticks
+  img.fill_rect(x1 - std::max(1, s / 2 + 1), y - 5 * s, std::max(1, s / 2 + 1), 5 * s, kInk);
+  draw_text(img, (x0 + x1) / 2 - text_width(label, s) / 2, y - 5 * s - text_height(s), label, {kInk, s, true});
 }
 
 void draw_legend(Image& img, int x, int y, int s, bool fixed, bool driven, bool probes) {

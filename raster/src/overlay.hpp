@@ -3,6 +3,7 @@
 #pragma once
 #include <algorithm>
 #include <array>
+#include <string>
 
 #include "pliant/raster/image.hpp"
 #include "pliant/raster/render.hpp"
@@ -26,6 +27,12 @@ void draw_overlays(Image& image, const Frame& frame, const RenderOptions& option
 // The legend of the marks present: fixed nodes, prescribed-motion nodes, probes; one line at
 // (x, y) in text scale s.
 void draw_legend(Image& image, int x, int y, int s, bool fixed, bool driven, bool probes);
+
+// The world axes as the camera sees them, bottom left (RenderOptions::axes), and a scale bar of a
+// round length, true at the depth of the view's target, bottom right (RenderOptions::scale_bar).
+void draw_axes(Image& image, const Layout& layout, const Camera& camera);
+void draw_scale_bar(Image& image, const Layout& layout, const Camera& camera);
+std::string length_label(double metres);  // "10 cm", "2 m", "5 mm", "500 µm"
 
 // "t = 0.400 s" with as many decimals as `step` (the spacing of the times shown) needs.
 std::string time_label(double t, double step = 0);

@@ -90,13 +90,17 @@ struct FrameRecorder::Impl {
     r.framing_points = framing_points;
     r.range = range;
     r.title = title;
+    r.azimuth_deg = opt.azimuth_deg;
+    r.elevation_deg = opt.elevation_deg;
+    r.axes = opt.axes;
+    r.scale_bar = opt.scale_bar;
     return r;
   }
   RenderOptions thumb_options() const {
     RenderOptions r = frame_options();
     r.width = opt.sheet_thumb_width;
     r.height = thumb_height();
-    r.colour_bar = r.time_label = r.legend = r.probe_labels = false;
+    r.colour_bar = r.time_label = r.legend = r.probe_labels = r.axes = r.scale_bar = false;
     r.title.clear();
     r.text_scale = 1;
     r.caption_height = 7 + text_height(opt.sheet_thumb_width >= 300 ? 2 : 1);  // the time, drawn by the sheet
@@ -279,6 +283,7 @@ FrameRecorder::FrameRecorder(const SceneDef& scene, RecorderOptions options, dou
   const Vec3d g = scene.world.gravity;
   const double gn = std::sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]);
   if (gn > 0) m.up = {-g[0] / gn, -g[1] / gn, -g[2] / gn};
+  if (m.opt.up) m.up = *m.opt.up;
   m.title = scene.source.empty() ? std::string("scene") : scene.source.filename().string();
   if (m.opt.mp4 && m.opt.png_every <= 0) m.opt.png_every = duration / 60;
   // Captures: at the frame interval; for a sheet also at least sheet_frames over the run

@@ -216,20 +216,28 @@ struct Renderer::Impl {
     glEnd();
   }
 
-  void draw_grid(const detail::Grid& g, int text_scale) {
+  // A grid of lines on a plane over a floor: faint (the ground under the bodies), or solid and
+  // tinted (an obstacle the bodies rest on, drawn with depth so that it hides what is below it).
+  void draw_grid(const detail::Grid& g, int text_scale, bool obstacle = false) {
     glDisable(GL_LIGHTING);
     glDisable(GL_TEXTURE_1D);
     glEnable(GL_DEPTH_TEST);
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-    glDepthMask(GL_FALSE);
-    glBegin(GL_QUADS);  // a faint floor
-    glColor4f(1.f, 1.f, 1.f, 0.35f);
+    glDepthMask(obstacle ? GL_TRUE : GL_FALSE);
+    if (obstacle) {  // lines a little in front of their floor
+      glEnable(GL_POLYGON_OFFSET_FILL);
+      glPolygonOffset(1.f, 1.f);
+    }
+    glBegin(GL_QUADS);
+    if (obstacle) glColor4f(0.80f, 0.74f, 0.64f, 1.f);  // a table top
+    else glColor4f(1.f, 1.f, 1.f, 0.35f);               // a faint floor
     for (auto [a, b] : {std::pair{g.a0, g.b0}, {g.a1, g.b0}, {g.a1, g.b1}, {g.a0, g.b1}}) {
       const V3 p = g.at(a, b);
       glVertex3d(p.x, p.y, p.z);
     }
     glEnd();
+    glDisable(GL_POLYGON_OFFSET_FILL);
     glLineWidth(float(std::max(1, text_scale / 2)));
     glBegin(GL_LINES);
     const int na = int(std::lround((g.a1 - g.a0) / g.spacing)), nb = int(std::lround((g.b1 - g.b0) / g.spacing));
@@ -358,7 +366,6 @@ Image Renderer::render(const Frame& frame, const RenderOptions& o, std::vector<s
   Impl& m = *impl_;
   const detail::Setup setup = detail::make_setup(frame, o);
   const detail::Layout& layout = setup.layout;
-  const detail::Grid& grid = setup.grid;
   const detail::Camera& cam = setup.camera;
   const std::array<double, 2> range = o.range ? *o.range : default_range(frame);
 
@@ -377,7 +384,8 @@ Image Renderer::render(const Frame& frame, const RenderOptions& o, std::vector<s
   glLoadMatrixd(cam.modelview.data());
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
-  if (o.grid) m.draw_grid(grid, layout.text_scale);
+  if (o.grid)
+    for (const detail::Grid& grid : setup.grids) m.draw_grid(grid, layout.text_scale, setup.obstacles);
 
   m.setup_lights();
   glEnable(GL_POLYGON_OFFSET_FILL);  // surfaces a little behind their marks

@@ -49,6 +49,8 @@ struct Grid {
   V3 at(double a, double b) const { return origin + e1 * a + e2 * b; }
 };
 Grid make_grid(const Bounds& bounds, const Vec3d& up);
+// The same on a given plane (an obstacle): the bounds projected onto it, padded like the ground grid.
+Grid make_plane_grid(const Bounds& bounds, const Vec3d& point, const Vec3d& normal);
 
 // Camera matrices (column-major, as OpenGL loads them) for the whole image.
 struct Camera {
@@ -61,14 +63,15 @@ struct Camera {
   bool project(const V3& p, double& px, double& py) const;
 };
 // The auto camera fits `fit` (points; the bounds' corners when empty).
-Camera make_camera(const RenderOptions& options, const Bounds& bounds, const Layout& layout, const Grid* grid,
-                   const std::vector<Vec3d>& fit = {});
+Camera make_camera(const RenderOptions& options, const Bounds& bounds, const Layout& layout,
+                   const std::vector<Grid>& grids, const std::vector<Vec3d>& fit = {});
 
 // Everything geometric about one picture of one frame: layout, grid, camera.
 struct Setup {
   Layout layout;
   Bounds framing;
-  Grid grid;
+  std::vector<Grid> grids;  // what options.grid draws: the ground grid, or one per obstacle
+  bool obstacles = false;   // the grids are obstacles (drawn as solid patches)
   Camera camera;
 };
 Setup make_setup(const Frame& frame, const RenderOptions& options);

@@ -88,7 +88,7 @@ check info_missing 2 "absent.vtu" -- "$pliant" info "$work/absent.vtu"
 check mesh_convert 0 "81 nodes, 192 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
 # Meshing a closed surface (STL and PLY, written here: a unit cube of 12 triangles) and an implicit
 # shape, when the build has CGAL.
-if "$pliant" mesh --help 2>&1 | grep -q -- --implicit; then
+if "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" >/dev/null 2>&1; then  # a build with CGAL
   v=("0 0 0" "1 0 0" "1 1 0" "0 1 0" "0 0 1" "1 0 1" "1 1 1" "0 1 1")
   f=("0 2 1" "0 3 2" "4 5 6" "4 6 7" "0 1 5" "0 5 4" "1 2 6" "1 6 5" "2 3 7" "2 7 6" "3 0 4" "3 4 7")
   { echo "solid c"; for t in "${f[@]}"; do set -- $t

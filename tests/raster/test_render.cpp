@@ -25,6 +25,8 @@
 #include "pliant/scene.hpp"
 #include "pliant/vtu_writer.hpp"
 #include "pliant/world.hpp"
+// White box: the overlay helpers (raster/src/, private).
+#include "../../raster/src/overlay.hpp"
 
 namespace {
 // Removes this process's scratch folder when the tests end.
@@ -147,6 +149,168 @@ TEST(Render, BodyIsWhereTheCameraLooks) {
   for (int y = 0; y < 300; ++y) {
     EXPECT_EQ(mask[std::size_t(y) * 400], 0);
     EXPECT_EQ(mask[std::size_t(y) * 400 + 399], 0);
+  }
+}
+
+// The unit vector from the target to the eye of a view.
+Vec3d eye_direction(const View& v) {
+  Vec3d d{v.position[0] - v.target[0], v.position[1] - v.target[1], v.position[2] - v.target[2]};
+  const double n = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+  for (double& c : d) c /= n;
+  return d;
+}
+
+TEST(Render, AzimuthAndElevationChooseTheViewDirection) {
+  const Frame f = bent_beam();
+  RenderOptions o;
+  o.width = 320;
+  o.height = 240;
+  struct Case {
+    double az, el;
+    Vec3d eye, up;  // expected, z up: azimuth 0 looks from -y, 90 from +x
+  };
+  const double c = std::sqrt(0.5);
+  for (const Case& k : {Case{0, 0, {0, -1, 0}, {0, 0, 1}}, Case{90, 0, {1, 0, 0}, {0, 0, 1}},
+                        Case{180, 45, {0, c, c}, {0, 0, 1}}, Case{0, 90, {0, 0, 1}, {0, 1, 0}},
+                        Case{90, -90, {0, 0, -1}, {-1, 0, 0}}}) {
+    o.azimuth_deg = k.az;
+    o.elevation_deg = k.el;
+    const View v = resolve_view(f, o);
+    const Vec3d d = eye_direction(v);
+    for (int i = 0; i < 3; ++i) {
+      EXPECT_NEAR(d[i], k.eye[i], 1e-9) << "azimuth " << k.az << " elevation " << k.el << " component " << i;
+      EXPECT_NEAR(v.up[i], k.up[i], 1e-9) << "azimuth " << k.az << " elevation " << k.el << " up " << i;
+    }
+    std::vector<std::uint8_t> mask;
+    renderer().render(f, o, &mask);
+    EXPECT_GT(count(mask), 500u) << "the body is in view";
+  }
+  // A given direction overrides the scene's camera block; without one the block is used.
+  o.camera = CameraDef{{0.5, -1.2, 0.4}, {0.5, 0.05, 0}, {0, 0, 1}, 35};
+  o.azimuth_deg = 90;
+  o.elevation_deg.reset();  // the default elevation, 25 degrees
+  const Vec3d d = eye_direction(resolve_view(f, o));
+  EXPECT_NEAR(d[2], std::sin(25 * std::acos(-1.0) / 180), 1e-9);
+  EXPECT_NEAR(d[1], 0, 1e-9);
+  o.azimuth_deg.reset();
+  EXPECT_EQ(resolve_view(f, o).position, o.camera->position);
+  // The up direction is the world's up of the options (y up: the eye is above in y).
+  o.camera.reset();
+  o.up = {0, 1, 0};
+  o.elevation_deg = 60;
+  EXPECT_NEAR(eye_direction(resolve_view(f, o))[1], std::sin(60 * std::acos(-1.0) / 180), 1e-9);
+}
+
+TEST(Render, TheScaleBarIsTrueAtTheTargetsDepth) {
+  // A 1 m x 2 mm x 30 cm plate seen square on from the front: its silhouette's width (1 m, 1 mm
+  // in front of the target's depth) against the bar's length.
+  const Frame f = frame_from_mesh(make_box_mesh({0, 0, 0}, {1, 0.002, 0.3}, {10, 1, 3}, 6), "plate", Field::none);
+  RenderOptions o;
+  o.width = 800;
+  o.height = 400;
+  o.text_scale = 2;
+  o.azimuth_deg = 0;
+  o.elevation_deg = 0;
+  o.grid = o.legend = o.time_label = o.axes = o.marks = false;
+  std::vector<std::uint8_t> mask;
+  const Image img = renderer().render(f, o, &mask);
+  int left = o.width, right = -1;
+  for (int y = 0; y < o.height; ++y)
+    for (int x = 0; x < o.width; ++x)
+      if (mask[std::size_t(y) * o.width + x]) left = std::min(left, x), right = std::max(right, x);
+  const double beam_px = right - left + 1;  // 1 m
+  // The bar: a dark run on the row 9 text units above the bottom, ending 10 units from the right.
+  const int s = 2, row = o.height - 8 * s - 1;
+  int x1 = o.width - 10 * s - 1, x0 = x1;
+  const auto dark = [&](int x) { const Rgba p = img.get(x, row); return p.r < 80 && p.g < 80 && p.b < 80; };
+  ASSERT_TRUE(dark(x1));
+  while (x0 > 0 && dark(x0 - 1)) --x0;
+  const double bar_m = (x1 - x0 + 1) / beam_px;  // the bar's length in metres, as the beam measures it
+  // A round length (here 10 cm: 1, 2 or 5 x 10^k m, at most a sixth of the width). Measured: 0.0997 m
+  // (the silhouette's edge pixels).
+  EXPECT_NEAR(bar_m, 0.1, 0.003) << "plate " << beam_px << " px, bar " << x1 - x0 + 1 << " px";
+  // Without the bar, nothing dark there.
+  o.scale_bar = false;
+  const Image plain = renderer().render(f, o, &mask);
+  const Rgba p = plain.get(x1, row);
+  EXPECT_FALSE(p.r < 80 && p.g < 80 && p.b < 80);
+}
+
+TEST(Render, TheAxisMarkerShowsTheWorldAxes) {
+  // From the front (azimuth 0, elevation 0, z up): x points right, z up, y into the picture.
+  RenderOptions o;
+  o.width = 400;
+  o.height = 300;
+  o.text_scale = 2;
+  o.azimuth_deg = 0;
+  o.elevation_deg = 0;
+  o.legend = false;
+  const Frame f = bent_beam(Field::none);
+  const Image img = renderer().render(f, o);
+  o.axes = false;
+  const Image plain = renderer().render(f, o);
+  // The marker's origin: 10 + 16 text units from the left, 8 + 16 units above the bottom.
+  const int s = 2, ox = 26 * s, oy = o.height - 24 * s;
+  const auto reddish = [](Rgba c) { return c.r > 150 && c.g < 100 && c.b < 100; };
+  const auto bluish = [](Rgba c) { return c.b > 130 && c.r < 90; };
+  EXPECT_TRUE(reddish(img.get(ox + 10 * s, oy))) << "x to the right";
+  EXPECT_TRUE(bluish(img.get(ox, oy - 10 * s))) << "z upwards";
+  EXPECT_FALSE(reddish(plain.get(ox + 10 * s, oy)));
+  EXPECT_FALSE(bluish(plain.get(ox, oy - 10 * s)));
+}
+
+TEST(Render, ObstaclesAreDrawnAsTheFloorTheBodiesRestOn) {
+  // The table-top colour of an obstacle patch (renderer.cpp), unlit.
+  const auto table = [](Rgba c) { return std::abs(c.r - 204) < 6 && std::abs(c.g - 189) < 6 && std::abs(c.b - 163) < 6; };
+  const auto count_table = [&](const Image& img) {
+    std::size_t n = 0;
+    for (int y = 0; y < img.height(); ++y)
+      for (int x = 0; x < img.width(); ++x) n += table(img.get(x, y));
+    return n;
+  };
+  Frame f = bent_beam(Field::none);
+  RenderOptions o;
+  o.width = 320;
+  o.height = 180;
+  EXPECT_EQ(count_table(renderer().render(f, o)), 0u);
+  f.obstacles.push_back({{0, 0, -0.2}, {0, 0, 1}});  // a floor under the beam's tip
+  const std::size_t with = count_table(renderer().render(f, o));
+  EXPECT_GT(with, std::size_t(0.1 * 320 * 180));
+  o.grid = false;
+  EXPECT_EQ(count_table(renderer().render(f, o)), 0u);
+  // A world's obstacles are captured with its bodies.
+  WorldDef wd;
+  wd.obstacles.push_back({{0, 0, -1}, {0, 0, 2}, 0.3});
+  World w(wd);
+  BodyDef b;
+  b.name = "box";
+  w.add_body(b);
+  const Frame captured = capture(w, Field::none);
+  ASSERT_EQ(captured.obstacles.size(), 1u);
+  EXPECT_EQ(captured.obstacles[0].point, (Vec3d{0, 0, -1}));
+  EXPECT_EQ(captured.obstacles[0].normal, (Vec3d{0, 0, 1}));  // of unit length
+}
+
+TEST(Render, ScaleBarLabelsReadInTheirUnit) {
+  EXPECT_EQ(detail::length_label(2), "2 m");
+  EXPECT_EQ(detail::length_label(0.1), "10 cm");
+  EXPECT_EQ(detail::length_label(0.02), "2 cm");
+  EXPECT_EQ(detail::length_label(0.005), "5 mm");
+  EXPECT_EQ(detail::length_label(5e-4), "500 \u00B5m");
+}
+
+TEST(Render, DirectionsAreParsedWithClearErrors) {
+  EXPECT_EQ(parse_direction("z"), (Vec3d{0, 0, 1}));
+  EXPECT_EQ(parse_direction("-Y"), (Vec3d{0, -1, 0}));
+  EXPECT_EQ(parse_direction("+x"), (Vec3d{1, 0, 0}));
+  EXPECT_EQ(parse_direction("0.5,0,-2"), (Vec3d{0.5, 0, -2}));
+  for (const char* bad : {"", "w", "1,2", "1,2,3,4", "a,b,c", "0,0,0", "1,,2"}) {
+    try {
+      parse_direction(bad, "--up");
+      ADD_FAILURE() << "no error for '" << bad << "'";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("--up: ")) << bad;
+    }
   }
 }
 

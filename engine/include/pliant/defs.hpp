@@ -72,6 +72,8 @@ struct MeshSourceDef {
   double cell_size = 0;
   // implicit: name of a shipped shape ("organ", ...)
   std::string shape;
+  // surface: a surface that does not bound a volume is repaired first (meshing.hpp, repair_surface)
+  bool repair = false;
   // applied after loading, to any kind: x <- scale * x + translate
   double scale = 1.0;
   Vec3d translate{0, 0, 0};
@@ -138,6 +140,15 @@ struct TimeStepDef {
 // on the last tick of the window (every coarse level on the same tick). Both give the same bits.
 enum class Schedule { staggered, naive };
 const char* to_string(Schedule s);  // "staggered" | "naive"
+// A static obstacle: the solid half-space below a plane, which free nodes of every body may not
+// enter (a floor, a table, a wall). After each (sub-)step a node found inside is put back onto
+// the plane and loses its velocity into it (inelastic), and with friction some of its sliding
+// velocity (Coulomb). Not a contact between bodies.
+struct ObstacleDef {
+  Vec3d point{0, 0, 0};   // m, a point of the plane
+  Vec3d normal{0, 0, 1};  // out of the solid, into the free side; any length > 0 (normalised)
+  double friction = 0;    // Coulomb coefficient mu >= 0 (0: frictionless)
+};
 
 struct WorldDef {
   Vec3d gravity{0, 0, -9.81};   // m/s^2
@@ -145,6 +156,7 @@ struct WorldDef {
   int threads = 0;              // 0: all cores the process may use
   TimeStepDef time_step;
   Schedule schedule = Schedule::staggered;
+  std::vector<ObstacleDef> obstacles;  // static half-spaces (none by default)
 };
 
 struct ProbeDef {

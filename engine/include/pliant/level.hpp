@@ -24,6 +24,7 @@ struct Level {
   AlignedVector<T> mass;        // lumped mass rho V / 4 per incident tet (kg)
   AlignedVector<std::uint8_t> state;  // NodeStateCode
   AlignedVector<T> external[3];     // constant nodal loads (N); empty when the body has none
+  AlignedVector<double> obstacle_impulse[3];  // impulse the obstacles gave each node so far (N s); empty without obstacles
 
   // ---- tetrahedra ----
   std::size_t tet_count = 0;

@@ -6,6 +6,7 @@
 
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/node_passes.hpp"
+#include "pliant/kernels/obstacle_passes.hpp"
 #include "pliant/level.hpp"
 
 namespace pliant {
@@ -71,6 +72,25 @@ IntegrateContext<T> integrate_context(Level<T>& L, const Gravity& gravity, doubl
   ic.dt = T(dt);
   ic.mass_damping = L.mass_damping;
   return ic;
+}
+
+// The obstacle pass of a level against one half-space (normal already of unit length; the
+// point in the level's coordinates, which are world coordinates).
+template <class T>
+// origin: the level's body frame (World::body_origin; obstacles are given in the world frame).
+HalfSpaceContext<T> half_space_context(Level<T>& L, const ObstacleDef& o, const Vec3d& origin) {
+  HalfSpaceContext<T> c;
+  for (int k = 0; k < 3; ++k) {
+    c.x[k] = L.x[k].data();
+    c.v[k] = L.v[k].data();
+    c.impulse[k] = L.obstacle_impulse[k].empty() ? nullptr : L.obstacle_impulse[k].data();
+    c.point[k] = T(o.point[k] - origin[k]);
+    c.normal[k] = T(o.normal[k]);
+  }
+  c.mass = L.mass.data();
+  c.state = L.state.data();
+  c.friction = T(o.friction);
+  return c;
 }
 
 template <class T>

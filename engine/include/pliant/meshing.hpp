@@ -17,7 +17,44 @@ bool meshing_available();
 
 // A closed, manifold triangle surface from .obj, .off, .stl or .ply, meshed at target cell size
 // `cell_size` (m). Reproducible: the same file and size give the same mesh on every run.
-TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size);
+// A surface that does not bound a volume throws InputError with its diagnosis (see
+// diagnose_surface). With `repair`, such a surface is first repaired (repair_surface) and meshed
+// if the repair gave a closed surface.
+TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size, bool repair = false);
+
+// What a surface file is and why it does or does not bound a volume, in the file's units.
+struct SurfaceDiagnosis {
+  std::size_t vertices = 0, faces = 0;    // as read (faces of any size)
+  std::size_t triangles = 0;              // after splitting polygons
+  Vec3d min{}, max{};                     // bounding box of the vertices used by faces
+  std::size_t non_manifold_edges = 0;     // edges shared by more than two faces
+  std::size_t non_manifold_vertices = 0;  // vertices where separate sheets touch (after the edges are fine)
+  std::size_t border_edges = 0;           // edges of one face only (the rims of holes)
+  std::size_t holes = 0;                  // connected loops of 3 or more border edges
+  std::size_t self_intersections = 0;     // pairs of faces that cross (checked on a manifold surface only)
+  bool orientable = true;
+  bool closed = false;                    // no border edges, manifold, orientable (the mesher then
+                                          // removes local self-intersections itself, as far as CGAL can)
+  double volume = 0;                      // enclosed volume, when closed (file units cubed)
+  // Where the problems are: one line per kind, with a bounding box and up to 3 vertex positions.
+  std::vector<std::string> problems;
+  bool bounds_volume() const { return closed && self_intersections == 0; }
+};
+// Reads a surface (.obj, .off, .stl, .ply) and diagnoses it; throws InputError only when the
+// file cannot be read at all. Needs CGAL (InputError saying so without).
+SurfaceDiagnosis diagnose_surface(const std::filesystem::path& surface);
+
+// Repairs a surface with CGAL's polygon mesh processing, as far as it can: stitches borders that
+// coincide, removes non-manifold configurations (duplicating vertices), orients the faces, fills
+// holes (triangulate, refine and fair the patch), removes self-intersections. The result, as a
+// triangle soup in file units, and what was done.
+struct RepairedSurface {
+  std::vector<double> points;                       // x y z per vertex
+  std::vector<std::array<std::int32_t, 3>> triangles;
+  std::vector<std::string> steps;                   // what each stage changed, e.g. "filled 3 holes"
+  SurfaceDiagnosis after;                           // the diagnosis of the result
+};
+RepairedSurface repair_surface(const std::filesystem::path& surface);
 
 // Shipped implicit shapes, by name (see implicit_shape_names()). "organ": a smooth, liver-like
 // body about 0.2 x 0.12 x 0.08 m centred on the origin; "sphere": radius 0.05 m; "capsule": a

@@ -12,13 +12,33 @@
 
 namespace pliant {
 
+// How far a run is, for progress lines (RunOptions::on_progress).
+struct RunProgress {
+  std::int64_t step = 0, steps = 0;  // steps done, steps in the run
+  std::int64_t substeps_done = 0;    // sub-steps taken so far (a step takes one or more)
+  int substeps = 1;                  // sub-steps the last step took
+  double time = 0, duration = 0;     // s simulated, s to simulate
+  double wall_s = 0;                 // s of wall time since stepping began
+  // Remaining wall time (s): the steps left, each of the last step's sub-step count, at the
+  // wall time per sub-step measured so far (the first step, which pays for warming caches and
+  // threads, left out when there are others). 0 until measured.
+  double eta_s = 0;
+  double seconds_per_substep = 0;    // s of wall time per sub-step, as measured
+  bool estimate = false;             // the first report, once the first steps are timed: the run's estimate
+};
+
 struct RunOptions {
   std::filesystem::path out_dir = "out";   // created if missing
   std::optional<int> threads;              // override the scene's
   std::optional<Precision> precision;      // override the scene's
   std::optional<double> duration;          // override the scene's (s)
   std::optional<Schedule> schedule;        // override the scene's
-  bool progress = false;                   // a progress line on stderr (rewritten in place)
+  // Progress: on_progress is called once when the first steps have been timed (at least 2 steps
+  // and estimate_after s of wall time, RunProgress::estimate set), then about every
+  // `progress_every` wall seconds (0: only the estimate). It must not change the world.
+  double progress_every = 0;               // s of wall time
+  double estimate_after = 0.3;             // s of wall time of stepping before the estimate (kEstimateAfter)
+  std::function<void(const RunProgress&)> on_progress;
   bool write_files = true;                 // false: compute only (tests, studies)
   // Called on the initial state and then every `frame_every` simulated seconds (0: never), for
   // pictures or custom records. It reads the world and must not change it.
@@ -68,6 +88,15 @@ World make_world(const SceneDef& scene, const RunOptions& options = {});
 // DIR/vtu/*.vtu + DIR/series.pvd. Throws InputError on bad input; on divergence writes the
 // summary (status "diverged") and then throws DivergenceError.
 RunSummary run_scene(const SceneDef& scene, const RunOptions& options);
+// The same on a world already built from the scene by make_world (e.g. to show its plan first,
+// run_plan.hpp); the world is stepped from where it is.
+RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& options);
+
+// Wall time (s) of stepping after which the first estimate is made (RunOptions::on_progress).
+inline constexpr double kEstimateAfter = 0.3;
+// Steps of a run of `duration` s at step dt (s): whole steps up to the duration (the last one
+// reaches or passes it).
+std::int64_t steps_for(double duration, double dt);
 
 std::string hash_hex(std::uint64_t h);
 

@@ -26,6 +26,9 @@ struct MeshLoadReport {
   std::size_t skipped_cells = 0;      // non-tetrahedral cells (triangles, lines, points, hexes...)
   std::size_t reoriented_tets = 0;    // negative-volume tets whose corners were swapped
   std::size_t dropped_vertices = 0;   // vertices used by no tet
+  // When vertices were dropped: vertex_map[i] = the mesh node that the file's i-th vertex (in file
+  // order, from 0) became, or -1 for a dropped one. Empty when none was dropped (identity).
+  std::vector<std::int32_t> vertex_map;
 };
 
 // Signed volume of tet (a,b,c,d): det[b-a, c-a, d-a] / 6 (m^3).

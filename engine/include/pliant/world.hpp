@@ -94,6 +94,7 @@ class World {
   double stiffness_ratio() const;
   double max_stiffness_ratio() const;
   Vec3d gravity() const;           // m/s^2
+  const std::vector<ObstacleDef>& obstacles() const;  // WorldDef::obstacles, normals of unit length
   Precision precision() const;
   Schedule schedule() const;
   int threads() const;
@@ -110,6 +111,12 @@ class World {
   // What loading did to the body's mesh: non-tetrahedral cells skipped, inverted tets re-oriented,
   // unused vertices dropped (all zero for a clean mesh).
   const MeshLoadReport& mesh_load_report(BodyId body) const;
+  // For a body read from a volume mesh file: node_map(body)[i] is the engine's node index (the
+  // index into positions(), level 0) of the file's i-th node, counted from 0 in the order the
+  // file lists them (a Gmsh file's n-th node, whatever its id), or -1 when no tet uses it (not
+  // loaded). The engine renumbers nodes for memory locality, so file index i is rarely node i.
+  // Empty for other bodies (boxes, meshed surfaces and shapes, meshes given in code).
+  const std::vector<std::int32_t>& node_map(BodyId body) const;
 
   // The world position (m) of the body frame's origin: the centre of the rest bounding box of the
   // body's mesh, in double. Positions in the level arrays are relative to it (see the top of this
@@ -145,6 +152,11 @@ class World {
   std::size_t probe_count() const;
   const std::string& probe_name(int probe) const;
   Vec3d probe_position(int probe) const;  // m, world frame, interpolated in the probe's tet
+
+  // Total impulse (N s) the static obstacles (WorldDef::obstacles) have given the nodes of a
+  // body's level since the start: the sum of m (v_after - v_before) over every contact, so that
+  // the body's momentum change is the impulse of gravity, loads and fixed nodes plus this one.
+  Vec3d obstacle_impulse(BodyId body, int level = 0) const;
 
   Energies energies() const;  // see Energies: kinetic is time-centred
   double max_displacement() const;  // m, largest |x - X| over all nodes

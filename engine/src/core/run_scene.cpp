@@ -2,7 +2,6 @@
 // VTU frames at their own rates, prints a progress line, writes summary.json.
 #include "pliant/run.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <fmt/format.h>
@@ -10,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "pliant/vtu_writer.hpp"
+#include "step_clock.hpp"
 
 namespace pliant {
 namespace fs = std::filesystem;
@@ -90,6 +90,19 @@ class VtuSeries {
   int frame_ = 0;
 };
 
+void write_node_map(const fs::path& path, const World& w) {
+  std::FILE* f = std::fopen(path.string().c_str(), "w");
+  if (!f) throw InputError(fmt::format("{}: cannot write", path.string()));
+  std::fputs("body,file_node,node\n", f);
+  for (std::size_t b = 0; b < w.body_count(); ++b) {
+    const std::string& name = w.body_def(BodyId(b)).name;
+    const auto& map = w.node_map(BodyId(b));
+    for (std::size_t i = 0; i < map.size(); ++i) fmt::print(f, "{},{},{}\n", name, i, map[i]);
+  }
+  const bool ok = std::ferror(f) == 0;
+  if (std::fclose(f) != 0 || !ok) throw InputError(fmt::format("{}: cannot write", path.string()));
+}
+
 void write_summary(const fs::path& path, const RunSummary& s) {
   nlohmann::ordered_json j;
   j["status"] = s.status;
@@ -137,14 +150,22 @@ void write_summary(const fs::path& path, const RunSummary& s) {
 
 }  // namespace
 
+std::int64_t steps_for(double duration, double dt) { return std::int64_t(std::ceil(duration / dt - 1e-9)); }
+
 RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
-  using Clock = std::chrono::steady_clock;
+  const double duration = options.duration.value_or(scene.duration);
+  if (!(duration > 0 && std::isfinite(duration)))
+    throw InputError(fmt::format("duration must be a finite number > 0 (s), got {}", duration));
+  World world = make_world(scene, options);
+  return run_world(scene, world, options);
+}
+
+RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& options) {
   const double duration = options.duration.value_or(scene.duration);
   if (!(duration > 0 && std::isfinite(duration)))
     throw InputError(fmt::format("duration must be a finite number > 0 (s), got {}", duration));
   if (options.write_files) fs::create_directories(options.out_dir);
 
-  World world = make_world(scene, options);
   RunSummary s;
   s.precision = to_string(world.precision());
   s.threads = world.threads();
@@ -165,7 +186,15 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
     const std::string m = to_string(world.body_def(BodyId(b)).model);
     if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
   }
-  const std::int64_t total_steps = std::int64_t(std::ceil(duration / world.dt() - 1e-9));
+  const std::int64_t total_steps = steps_for(duration, world.dt());
+
+  // The file's node numbers -> the engine's (the .vtu files use the engine's), for file meshes.
+  bool any_map = false;
+  for (std::size_t b = 0; b < world.body_count(); ++b) any_map |= !world.node_map(BodyId(b)).empty();
+  if (options.write_files && any_map) {
+    write_node_map(options.out_dir / "node_map.csv", world);
+    s.files.push_back("node_map.csv");
+  }
 
   ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
@@ -177,11 +206,14 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   double next_probe = scene.output.probe_every, next_vtu = scene.output.vtu_every, next_frame = options.frame_every;
   const double eps = 1e-9 * world.dt();
 
-  const auto start = Clock::now();
-  auto last_print = start;
+  detail::StepClock clock;
+  clock.start();
+  bool estimated = false;
+  double next_progress = options.progress_every;
   try {
     for (std::int64_t i = 0; i < total_steps; ++i) {
       world.step();
+      clock.stepped(world.substeps());
       if (world.time() + eps >= next_probe) {
         probes.write(world);
         next_probe += scene.output.probe_every;
@@ -196,16 +228,17 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
         options.on_frame(world);
         while (next_frame <= world.time() + eps) next_frame += options.frame_every;
       }
-      if (options.progress && (i & 63) == 0) {
-        const auto now = Clock::now();
-        if (now - last_print > std::chrono::milliseconds(200)) {
-          last_print = now;
-          const double wall = std::chrono::duration<double>(now - start).count();
-          const double rate = double(i + 1) / wall;
-          std::fprintf(stderr, "\r  %5.1f%%  t = %.4g / %.4g s  step %lld / %lld  %.0f steps/s  ETA %.0f s   ",
-                       100.0 * double(i + 1) / double(total_steps), world.time(), duration, (long long)(i + 1),
-                       (long long)total_steps, rate, double(total_steps - i - 1) / rate);
-          std::fflush(stderr);
+      if (options.on_progress && i + 1 < total_steps) {
+        const double wall = clock.wall();
+        if (!estimated && i >= 1 && wall >= options.estimate_after) {
+          estimated = true;
+          RunProgress p = clock.progress(total_steps, world.substeps(), world.time(), duration);
+          p.estimate = true;
+          options.on_progress(p);
+          next_progress = wall + options.progress_every;
+        } else if (estimated && options.progress_every > 0 && wall >= next_progress) {
+          options.on_progress(clock.progress(total_steps, world.substeps(), world.time(), duration));
+          next_progress = wall + options.progress_every;
         }
       }
     }
@@ -213,8 +246,7 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
     s.status = "diverged";
     s.message = e.what();
   }
-  if (options.progress) std::fprintf(stderr, "\r%100s\r", "");
-  s.wall_time_s = std::chrono::duration<double>(Clock::now() - start).count();
+  s.wall_time_s = clock.wall();
   s.steps = world.steps();
   s.max_substeps = world.max_substeps();
   s.adapted_steps = world.adapted_steps();

@@ -113,6 +113,10 @@ bool run_gather_integrate(const void* ctx, Range r) {
   return gather_integrate_symplectic_euler(js.gc, js.ic, r);
 }
 template <class T>
+void run_obstacle(const void* ctx, Range r) {
+  resolve_half_space(*static_cast<const HalfSpaceContext<T>*>(ctx), r);
+}
+template <class T>
 bool run_integrate(const void* ctx, Range r) {
   const auto& js = *static_cast<const LevelJobState<T>*>(ctx);
   if (js.rc.impulse[0]) return integrate_symplectic_euler_impulse(js.ic, js.rc.impulse, r);
@@ -232,6 +236,20 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     }
     where = fmt::format("step {} (t = {:.6g} s): a node diverged", step_index, t + h);
     return false;
+  }
+
+  // Static obstacles (kernels/obstacle_passes.hpp): free nodes of the levels whose window ends that
+  // entered one go back onto its surface. One region per obstacle: two planes may move one node.
+  for (const ObstacleDef& o : obstacles) {
+    segments_.clear();
+    for (std::size_t j = 0; j < jobs; ++j) {
+      if (!due_[j].window_end) continue;
+      Level<T>& L = level_of(j);
+      LevelJobState<T>& js = job_state_[j];
+      js.obstacle = half_space_context(L, o, bodies[std::size_t(js.body)].origin);
+      segments_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_obstacle<T>, &js.obstacle});
+    }
+    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
   }
 
   // Prescribed motion of the levels that integrated: nodes at rest + offset(end of window),

@@ -77,6 +77,12 @@ std::vector<std::int32_t> select_nodes(const TetMesh& mesh, const RegionDef& r, 
 template <class T>
 SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double courant, Executor& exec);
 
+// Sizes the level's obstacle impulse record and refuses (InputError naming the node) a body
+// whose free nodes start inside one of the (unit-normal) obstacles (obstacles.cpp).
+template <class T>
+void prepare_obstacles(Level<T>& level, const std::vector<ObstacleDef>& obstacles, const std::string& body,
+                       const Vec3d& origin);
+
 // ---- the stable step (stable_step.cpp) ----
 // 2 c_p / h_min (rad/s): the highest frequency of a mesh of smallest altitude h_min (m) as the
 // classic Courant estimate has it (not a bound: Kuhn meshes go 22% above it).
@@ -109,6 +115,7 @@ struct LevelJobState {
   IntegrateContext<T> ic;
   GhostContext<T> gh;
   ReceiveContext<T> rc;
+  HalfSpaceContext<T> obstacle;  // of the obstacle being resolved (set each tick)
 };
 
 // A piece of one level's element work on a tick: a stretch of consecutive stepped tets.
@@ -150,6 +157,7 @@ class Simulation {
   std::vector<ProbeState> probes;
   T gravity[3] = {0, 0, 0};
   ScheduleKind schedule = ScheduleKind::staggered;
+  std::vector<ObstacleDef> obstacles;  // static half-spaces, unit normals (World checks them)
 
   // Builds the jobs (one per level of every body), their periods for fine ticks of `tick_dt` (s)
   // (levels of a multiresolution body: level_period of their stable step; single-level bodies: 1)

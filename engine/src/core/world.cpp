@@ -21,6 +21,31 @@ template <class T>
 void cauchy_stress(Executor& exec, const SimBody<T>& body, const Level<T>& L, std::vector<double>& sigma9);
 }
 
+namespace {
+
+// The obstacles with unit normals (World's constructor has checked them).
+std::vector<ObstacleDef> unit_obstacles(std::vector<ObstacleDef> obstacles) {
+  for (ObstacleDef& o : obstacles) {
+    const double n = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2]);
+    for (double& c : o.normal) c /= n;
+  }
+  return obstacles;
+}
+
+void check_obstacles(const std::vector<ObstacleDef>& obstacles) {
+  for (std::size_t i = 0; i < obstacles.size(); ++i) {
+    const ObstacleDef& o = obstacles[i];
+    bool finite = std::isfinite(o.friction);
+    for (int k = 0; k < 3; ++k) finite = finite && std::isfinite(o.point[k]) && std::isfinite(o.normal[k]);
+    if (!finite) throw InputError(fmt::format("obstacles[{}]: point, normal and friction must be finite", i));
+    const double n2 = o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2];
+    if (!(n2 > 1e-300)) throw InputError(fmt::format("obstacles[{}]: the plane's normal must not be [0, 0, 0]", i));
+    if (!(o.friction >= 0)) throw InputError(fmt::format("obstacles[{}]: friction must be >= 0, got {}", i, o.friction));
+  }
+}
+
+}  // namespace
+
 struct World::Impl {
   WorldDef def;
   Executor exec;
@@ -44,6 +69,7 @@ struct World::Impl {
       sim.emplace<detail::Simulation<double>>();
     std::visit([&](auto& s) {
       for (int k = 0; k < 3; ++k) s.gravity[k] = static_cast<std::remove_reference_t<decltype(s.gravity[0])>>(d.gravity[k]);
+      s.obstacles = unit_obstacles(d.obstacles);
     }, sim);
   }
 
@@ -134,6 +160,7 @@ struct World::Impl {
   static constexpr int kMaxAdaptiveSubsteps = 256;
   int checks_wanting_fewer = 0;
   std::vector<MeshLoadReport> load_reports;  // per body: what loading fixed in its mesh
+  std::vector<std::vector<std::int32_t>> node_maps;  // per body: file vertex -> node (World::node_map)
   void adapt_substeps() {
     stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
     max_stiffness_ratio = std::max(max_stiffness_ratio, stiffness_ratio);
@@ -175,6 +202,7 @@ World::World(const WorldDef& def) {
   for (int k = 0; k < 3; ++k)
     if (!std::isfinite(def.gravity[k])) throw InputError("gravity must be 3 finite numbers");
   if (def.threads < 0) throw InputError(fmt::format("threads must be >= 0 (0 = all cores), got {}", def.threads));
+  check_obstacles(def.obstacles);
   impl_ = std::make_unique<Impl>(def);
 }
 World::~World() = default;
@@ -192,7 +220,7 @@ TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std:
   switch (src.kind) {
     case MeshSourceDef::Kind::box: mesh = make_box_mesh(src.min, src.max, src.cells, src.tets_per_cell); break;
     case MeshSourceDef::Kind::file: mesh = read_tet_mesh(src.path, &rep); break;
-    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size); break;
+    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size, src.repair); break;
     case MeshSourceDef::Kind::implicit: mesh = mesh_implicit_shape(src.shape, src.cell_size); break;
   }
   if (!(src.scale > 0 && std::isfinite(src.scale)))
@@ -207,8 +235,8 @@ TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std:
   return mesh;
 }
 
-// RegionDef::nodes count in the mesh as loaded (the file's numbering): map them to the
-// renumbered mesh. Indices out of range stay as given, so that the error names them.
+// RegionDef::nodes count in the file's numbering (for file meshes; else the mesher's): map them
+// to the engine's. Indices out of range stay as given, so that the error names them.
 BodyDef with_mapped_node_regions(const BodyDef& def, const std::vector<std::int32_t>& old_to_new) {
   BodyDef out = def;
   auto map = [&](RegionDef& r) {
@@ -220,6 +248,20 @@ BodyDef with_mapped_node_regions(const BodyDef& def, const std::vector<std::int3
   for (auto& p : out.prescribed) map(p.region);
   for (auto& l : out.loads) map(l.region);
   return out;
+}
+
+// A "nodes" region that lists a node of the file which no tet uses (and so was not loaded).
+void check_region_nodes_used(const BodyDef& def, const std::vector<std::int32_t>& file_map) {
+  auto check = [&](const RegionDef& r, const std::string& what) {
+    if (r.kind != RegionDef::Kind::nodes) return;
+    for (auto n : r.nodes)
+      if (n >= 0 && std::size_t(n) < file_map.size() && file_map[std::size_t(n)] < 0)
+        throw InputError(fmt::format("body '{}': {}: node {} of the file is used by no tetrahedron (it was not loaded)",
+                                     def.name, what, n));
+  };
+  for (std::size_t i = 0; i < def.fixed.size(); ++i) check(def.fixed[i], fmt::format("fixed[{}]", i));
+  for (std::size_t i = 0; i < def.prescribed.size(); ++i) check(def.prescribed[i].region, fmt::format("prescribed[{}]", i));
+  for (std::size_t i = 0; i < def.loads.size(); ++i) check(def.loads[i].region, fmt::format("loads[{}]", i));
 }
 
 bool has_node_regions(const BodyDef& def) {
@@ -240,15 +282,33 @@ BodyId World::add_body(const BodyDef& def) {
   std::vector<std::int32_t> old_to_new;
   MeshLoadReport read;  // what the reader skipped or fixed
   TetMesh mesh = build_mesh_mapped(def.mesh, &read, &old_to_new);
-  const bool mapped = !old_to_new.empty() && has_node_regions(def);
-  const BodyId id = mapped ? add_body(with_mapped_node_regions(def, old_to_new), std::move(mesh))
+  // A file's numbering -> the engine's: the reader dropped unused vertices (read.vertex_map),
+  // then the mesh was renumbered for locality (old_to_new). "nodes" regions count in the file's.
+  std::vector<std::int32_t> file_map;
+  if (def.mesh.kind == MeshSourceDef::Kind::file) {
+    file_map.resize(read.vertex_map.empty() ? mesh.node_count() : read.vertex_map.size());
+    for (std::size_t i = 0; i < file_map.size(); ++i) {
+      const std::int32_t j = read.vertex_map.empty() ? std::int32_t(i) : read.vertex_map[i];
+      file_map[i] = j < 0 ? -1 : old_to_new.empty() ? j : old_to_new[std::size_t(j)];
+    }
+    check_region_nodes_used(def, file_map);
+  }
+  const std::vector<std::int32_t>& region_map = file_map.empty() ? old_to_new : file_map;
+  const bool mapped = !region_map.empty() && has_node_regions(def);
+  const BodyId id = mapped ? add_body(with_mapped_node_regions(def, region_map), std::move(mesh))
                            : add_body(def, std::move(mesh));
   if (mapped) impl_->visit([&](auto& s) { s.bodies[std::size_t(id)].def = def; });  // keep the definition as given
+  impl_->node_maps[std::size_t(id)] = std::move(file_map);
   MeshLoadReport& r = impl_->load_reports[std::size_t(id)];
   r.skipped_cells += read.skipped_cells;
   r.reoriented_tets += read.reoriented_tets;
   r.dropped_vertices += read.dropped_vertices;
   return id;
+}
+
+const std::vector<std::int32_t>& World::node_map(BodyId body) const {
+  if (body < 0 || std::size_t(body) >= impl_->node_maps.size()) throw InputError(fmt::format("no body with id {}", body));
+  return impl_->node_maps[std::size_t(body)];
 }
 
 const MeshLoadReport& World::mesh_load_report(BodyId body) const {
@@ -275,7 +335,10 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
       b.levels.push_back(
           detail::build_level<T>(mesh, b.origin, def, impl_->def.time_step.courant, b.motions, impl_->exec));
     }
-    for (const auto& L : b.levels) tets += L.tet_count;
+    for (auto& L : b.levels) {
+      tets += L.tet_count;
+      detail::prepare_obstacles(L, s.obstacles, def.name, b.origin);
+    }
     s.bodies.push_back(std::move(b));
     s.scratch.reserve(std::max(s.scratch.capacity(), tets));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
@@ -287,6 +350,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     throw;
   }
   impl_->load_reports.push_back(report);
+  impl_->node_maps.emplace_back();
   return id;
 }
 
@@ -320,9 +384,37 @@ int World::add_probe(const ProbeDef& def) {
     double inside = -1e300;
     double w[4];
     for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, tet_weights(fine, t, point, w));
-    if (inside < kInside)
-      throw InputError(fmt::format("probe '{}': point [{}, {}, {}] is not inside body '{}'", def.name, def.point[0],
-                                   def.point[1], def.point[2], def.body));
+    if (inside < kInside) {
+      // Say where the body is: its nearest node (and that node's number in the file) and extent,
+      // in the world frame.
+      const auto& L = fine;
+      const Vec3d& o = body.origin;
+      double d2 = 1e300, lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
+      std::size_t near = 0;
+      for (std::size_t n = 0; n < L.node_count; ++n) {
+        double e = 0;
+        for (int k = 0; k < 3; ++k) {
+          const double x = o[k] + double(L.X[k][n]), d = x - def.point[k];
+          e += d * d;
+          lo[k] = std::min(lo[k], x);
+          hi[k] = std::max(hi[k], x);
+        }
+        if (e < d2) {
+          d2 = e;
+          near = n;
+        }
+      }
+      std::string file_node;
+      const auto& map = impl_->node_maps[std::size_t(b)];
+      for (std::size_t i = 0; i < map.size(); ++i)
+        if (map[i] == std::int32_t(near)) file_node = fmt::format(" (the file's node {}, counted from 0)", i);
+      throw InputError(fmt::format(
+          "probe '{}': point [{}, {}, {}] is not inside body '{}'; its nearest node is node {}{} at [{:.6g}, {:.6g}, "
+          "{:.6g}], {:.4g} m away (the body spans [{:.6g}, {:.6g}, {:.6g}]..[{:.6g}, {:.6g}, {:.6g}] m)",
+          def.name, def.point[0], def.point[1], def.point[2], def.body, near, file_node, o[0] + double(L.X[0][near]),
+          o[1] + double(L.X[1][near]), o[2] + double(L.X[2][near]), std::sqrt(d2), lo[0], lo[1], lo[2], hi[0], hi[1],
+          hi[2]));
+    }
     // The finest level that steps a tet containing the point reads it (a single-level body: its
     // only level); where the levels' meshes differ at the surface and none does, the stepped tet
     // nearest to containing it, with its weights clamped to the tet.
@@ -391,6 +483,9 @@ std::int64_t World::adapted_steps() const { return impl_->adapted_steps; }
 double World::stiffness_ratio() const { return impl_->stiffness_ratio; }
 double World::max_stiffness_ratio() const { return impl_->max_stiffness_ratio; }
 Vec3d World::gravity() const { return impl_->def.gravity; }
+const std::vector<ObstacleDef>& World::obstacles() const {
+  return impl_->visit([](auto& s) -> const std::vector<ObstacleDef>& { return s.obstacles; });
+}
 Precision World::precision() const { return impl_->def.precision; }
 Schedule World::schedule() const { return impl_->def.schedule; }
 int World::threads() const { return impl_->exec.threads(); }
@@ -541,6 +636,17 @@ Vec3d World::probe_position(int p) const {
       for (int k = 0; k < 3; ++k) local[k] += pr.weights[a] * x[k];
     }
     return Vec3d{body.origin[0] + local[0], body.origin[1] + local[1], body.origin[2] + local[2]};
+  });
+}
+
+Vec3d World::obstacle_impulse(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& L = impl_->level(s, b, l);
+    Vec3d J{0, 0, 0};
+    if (!L.obstacle_impulse[0].empty())
+      for (std::size_t n = 0; n < L.node_count; ++n)  // fixed order
+        for (int k = 0; k < 3; ++k) J[k] += L.obstacle_impulse[k][n];
+    return J;
   });
 }
 

@@ -99,6 +99,7 @@ void finalize_tet_mesh_named(TetMesh& mesh, const std::string& source, MeshLoadR
     for (auto& v : tet) v = remap[v];
   mesh.points = std::move(points);
   report.dropped_vertices += n - kept;
+  report.vertex_map = std::move(remap);
 }
 
 }  // namespace meshio

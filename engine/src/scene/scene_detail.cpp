@@ -19,6 +19,8 @@ KeyList object_keys_at(std::string_view pattern) {
       {"time_step", kTimeStepKeys},
       {"output", kOutputKeys},
       {"camera", kCameraKeys},
+      {"obstacles[]", kObstacleKeys},
+      {"obstacles[].plane", kPlaneKeys},
       {"probes[]", kProbeKeys},
       {"bodies[]", kBodyKeys},
       {"bodies[].mesh", kMeshKeys},

@@ -16,14 +16,14 @@ using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
                                                   "time_step", "bodies", "probes",    "output",
-                                                  "camera",    "schedule"};
+                                                  "camera",    "schedule",  "obstacles"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution"};
 inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active"};
 inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
-                                                 "cell_size", "scale", "translate"};
+                                                 "cell_size", "scale", "translate", "repair"};
 inline constexpr std::string_view kMeshBoxKeys[] = {"min", "max", "cells", "tets_per_cell"};
 inline constexpr std::string_view kMaterialKeys[] = {"young", "poisson", "density", "damping"};
 inline constexpr std::string_view kDampingKeys[] = {"mass", "stiffness", "bulk_viscosity",
@@ -37,6 +37,8 @@ inline constexpr std::string_view kLoadKeys[] = {"region", "force"};
 inline constexpr std::string_view kProbeKeys[] = {"name", "body", "point"};
 inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every", "sheet"};
 inline constexpr std::string_view kCameraKeys[] = {"position", "target", "up", "fov_deg"};
+inline constexpr std::string_view kObstacleKeys[] = {"plane", "friction"};
+inline constexpr std::string_view kPlaneKeys[] = {"point", "normal"};
 
 // Keys starting with "_" or "//" are comments, ignored everywhere.
 inline bool is_comment_key(std::string_view k) {

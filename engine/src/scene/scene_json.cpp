@@ -211,6 +211,7 @@ class Reader {
   NodalLoadDef load(const Json& j, const std::string& path) const;
   ProbeDef probe(const Json& j, const std::string& path, std::size_t index) const;
   CameraDef camera(const Json& j, const std::string& path) const;
+  ObstacleDef obstacle(const Json& j, const std::string& path) const;
 
   std::string source_;
   fs::path base_dir_;
@@ -271,6 +272,9 @@ SceneDef Reader::scene(const Json& doc) const {
     optional(v, p, "sheet", [&](const auto& x, const auto& q) { s.output.sheet = boolean(x, q); });
   });
   optional(doc, "", "camera", [&](const auto& v, const auto& p) { s.camera = camera(v, p); });
+  optional(doc, "", "obstacles", [&](const auto& v, const auto& path) {
+    for (std::size_t i = 0; i < array(v, path).size(); ++i) s.world.obstacles.push_back(obstacle(v[i], element(path, i)));
+  });
   return s;
 }
 
@@ -294,6 +298,20 @@ CameraDef Reader::camera(const Json& j, const std::string& path) const {
   if (!(std::sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2]) > 1e-6 * dd * uu))
     fail(field(path, "up"), "is along the view direction (target - position); give a direction across it");
   return c;
+}
+
+ObstacleDef Reader::obstacle(const Json& j, const std::string& path) const {
+  object(j, path, kObstacleKeys);
+  ObstacleDef o;
+  const std::string pp = field(path, "plane");
+  const Json& plane = required(j, path, "plane");
+  object(plane, pp, kPlaneKeys);
+  o.point = vec3(required(plane, pp, "point"), field(pp, "point"));
+  o.normal = vec3(required(plane, pp, "normal"), field(pp, "normal"));
+  if (!(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2] > 0))
+    fail(field(pp, "normal"), "must not be [0, 0, 0] (it points out of the solid, into the free side)");
+  optional(j, path, "friction", [&](const auto& v, const auto& p) { o.friction = non_negative(v, p); });
+  return o;
 }
 
 TimeStepDef Reader::time_step(const Json& j, const std::string& path) const {
@@ -439,6 +457,10 @@ MeshSourceDef Reader::mesh(const Json& j, const std::string& path) const {
     m.cell_size = positive(required(j, path, "cell_size"), field(path, "cell_size"));
   else if (j.contains("cell_size"))
     fail(field(path, "cell_size"), "only used with surface and implicit meshes");
+  if (kind == "surface")
+    optional(j, path, "repair", [&](const auto& x, const auto& q) { m.repair = boolean(x, q); });
+  else if (j.contains("repair"))
+    fail(field(path, "repair"), "only used with surface meshes");
   optional(j, path, "scale", [&](const auto& x, const auto& q) { m.scale = positive(x, q); });
   optional(j, path, "translate", [&](const auto& x, const auto& q) { m.translate = vec3(x, q); });
   return m;

@@ -31,6 +31,9 @@ struct RecorderOptions {
   int width = 1280, height = 720;  // frame size (pixels)
   Field field = Field::displacement;
   CameraPreset camera = CameraPreset::scene;
+  std::optional<Vec3d> up;                         // the picture's up; default: against gravity
+  std::optional<double> azimuth_deg, elevation_deg;  // view direction (RenderOptions)
+  bool axes = true, scale_bar = true;              // on the numbered frames (never on sheet thumbnails)
   int sheet_frames = 12;        // at most this many pictures on the sheet
   int sheet_columns = 4;
   int sheet_thumb_width = 0;    // pixels; 0: a quarter of the frame width; the height follows the frame aspect

@@ -54,12 +54,17 @@ struct ProbeMark {
   std::string name;
   Vec3d position{};  // m
 };
+// A static obstacle (WorldDef::obstacles): drawn as a floor patch under the bodies.
+struct ObstacleMark {
+  Vec3d point{}, normal{0, 0, 1};  // m; normal of unit length, out of the solid
+};
 struct Frame {
   double time = 0;           // s
   bool has_time = true;      // false: a state of unknown time (a mesh file)
   Field field = Field::none;
   std::vector<SurfaceBody> bodies;
   std::vector<ProbeMark> probes;
+  std::vector<ObstacleMark> obstacles;  // drawn instead of the ground grid when there are any
   std::size_t bytes() const;  // memory held by the frame's own arrays
 };
 
@@ -98,6 +103,10 @@ Frame frame_from_mesh(const TetMesh& mesh, const std::string& name, Field field,
 // "WIDTHxHEIGHT" (e.g. "1280x720"), each in [16, 16384]; else InputError naming `what`.
 std::array<int, 2> parse_size(std::string_view text, std::string_view what = "size");
 
+// A direction: an axis ("x", "y", "z", "-x", "-y", "-z") or "X,Y,Z" (not zero); else InputError
+// naming `what` (e.g. "--up").
+Vec3d parse_direction(std::string_view text, std::string_view what = "direction");
+
 // Up to about `max_points` surface points of a frame (every k-th node, and the probes), for
 // RenderOptions::framing_points.
 std::vector<Vec3d> framing_sample(const Frame& frame, std::size_t max_points = 4096);
@@ -126,12 +135,23 @@ struct RenderOptions {
   CameraPreset preset = CameraPreset::scene;
   std::optional<CameraDef> camera;                // the scene's camera block (used by preset scene)
   Vec3d up{0, 0, 1};                              // world up (from gravity): auto views and grid
+  // The automatic camera's direction around the target, in degrees: azimuth about `up`, from the
+  // front (0: looking from the -e2 side, with e1, e2 the ground axes of plane_axes, i.e. from -y
+  // for z up; 90: from +e1, the side view), elevation above the ground plane (90: from above).
+  // When either is set it overrides the preset's direction and the scene's camera block (the
+  // other keeps its default of 30 or 25 degrees); the view is still fitted to the bodies.
+  std::optional<double> azimuth_deg, elevation_deg;
   std::optional<Bounds> framing;                  // what the grid spans (and the auto camera fits); default: the frame's bounds
   std::vector<Vec3d> framing_points;              // what the auto camera fits, if given (e.g. a sample of a whole run)
   std::optional<std::array<double, 2>> range;     // colour range in SI units; default [0, nice max of the frame]
   std::string title;                              // top-left, after the time
   int caption_height = 0;                         // pixels at the top kept free of bodies (for a caption drawn later)
+  // grid: the ground grid under the lowest point, or, when the frame has obstacles, the obstacles
+  // (a patch of each plane with its own grid lines) instead.
   bool colour_bar = true, time_label = true, grid = true, marks = true, probe_labels = true, legend = true;
+  bool axes = true;       // an x/y/z axis marker, bottom left: the world axes as the camera sees them
+  bool scale_bar = true;  // a bar of a round length (1, 2 or 5 x 10^k m, in m, cm, mm or um), bottom right,
+                          // true at the depth of the view's target (perspective: nearer things look larger)
   int samples = 4;                                // multisample anti-aliasing (1 = off)
   int text_scale = 0;                             // 0: from the height (1 per 360 px)
 };
