@@ -34,15 +34,17 @@ check bad_faces 2 "faces\[1\]: must grow from coarse to fine" -- "$pliant" run "
 scene nowhere "{\"bodies\": [{\"name\": \"bar\", $bar, $split, \"fixed\": [{\"sphere\": {\"center\": [0.05,0.05,0.05], \"radius\": 0.001}}]}]}"
 check region_at_no_level 2 "fixed\[0\] selects no node simulated at any level" -- "$pliant" run "$work/nowhere.json" --out "$work/o"
 
-check info_levels 0 "multiresolution hierarchy \(3 levels" -- "$pliant" info "$src/data/meshes/liver.msh" --levels 3
 check info_bad_faces 2 "--faces: expected counts" -- "$pliant" info "$src/data/meshes/liver.msh" --faces 30,x
 if "$pliant" mesh --implicit sphere --cell-size 0.02 -o "$work/s.vtu" >/dev/null 2>&1; then  # CGAL in this build
+  check info_levels 0 "multiresolution hierarchy \(3 levels" -- "$pliant" info "$src/data/meshes/liver.msh" --levels 3
   check mesh_levels 0 "time: finest" -- "$pliant" mesh --implicit organ --cell-size 0.01 --levels 3 -o "$work/organ.vtu"
   if [ -f "$work/organ_L0.vtu" ] && [ -f "$work/organ_L1.vtu" ]; then ok mesh_level_files; else fail mesh_level_files; fi
   check organ_levels 0 "organ level 0" -- "$pliant" run "$src/scenes/multires_organ.json" --out "$work/organ" --duration 0.01 --sheet --field level --size 640x360
   if [ -n "$(png_size "$work/organ/sheet.png")" ]; then ok sheet_by_level; else fail sheet_by_level; fi
 else
-  echo "SKIPPED mesh_levels, organ_levels: this build has no CGAL"
+  # A file's coarser levels are its surface simplified and meshed again: without CGAL, a clear error.
+  check info_levels_no_cgal 2 "built without CGAL" -- "$pliant" info "$src/data/meshes/liver.msh" --levels 3
+  echo "SKIPPED info_levels, mesh_levels, organ_levels: this build has no CGAL"
 fi
 
 echo "$passed passed, $failed failed"
