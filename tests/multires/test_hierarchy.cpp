@@ -7,6 +7,8 @@
 #include <cmath>
 #include <numeric>
 
+#include <fmt/format.h>
+
 #include "../../engine/src/multires/activation.hpp"
 #include "pliant/hierarchy.hpp"
 #include "pliant/world.hpp"
@@ -224,3 +226,94 @@ TEST(Activation, NonNestedOrganLevelsStayOnePiece) {
 }  // namespace
 }  // namespace pliant
 #endif
+
+namespace pliant {
+namespace {
+
+bool same_state(const detail::ActivationState& a, const detail::ActivationState& b, std::string& why) {
+  for (int l = 0; l < a.levels(); ++l) {
+    if (a.stepped_mask(l) != b.stepped_mask(l)) {
+      why = fmt::format("level {}: stepped tets differ", l);
+      return false;
+    }
+    const std::size_t nodes = a.hierarchy().meshes[std::size_t(l)].node_count();
+    for (std::size_t i = 0; i < nodes; ++i) {
+      if (a.role(l, std::int32_t(i)) != b.role(l, std::int32_t(i))) {
+        why = fmt::format("level {} node {}: role differs", l, i);
+        return false;
+      }
+      const auto &sa = a.sources(l, std::int32_t(i)), &sb = b.sources(l, std::int32_t(i));
+      if (sa.size() != sb.size()) {
+        why = fmt::format("level {} node {}: sources differ", l, i);
+        return false;
+      }
+      for (std::size_t e = 0; e < sa.size(); ++e)
+        if (sa[e].level != sb[e].level || sa[e].node != sb[e].node || sa[e].weight != sb[e].weight) {
+          why = fmt::format("level {} node {}: source {} differs", l, i, e);
+          return false;
+        }
+    }
+  }
+  return true;
+}
+
+// Adaptivity changes a few targets at a time: the incremental update must reach the state a
+// fresh evaluation of the same targets gives, and examine a number of tets and nodes that
+// depends on the change, not on the body.
+void incremental_matches_fresh(const Hierarchy& h, int rounds, std::uint64_t seed) {
+  const int n = int(h.levels());
+  std::vector<std::vector<int>> targets(static_cast<std::size_t>(n));
+  for (int l = 0; l < n; ++l) targets[std::size_t(l)].assign(h.meshes[std::size_t(l)].node_count(), 0);
+  detail::ActivationState state(h, targets);
+  std::uint64_t r = seed;
+  auto next = [&] {
+    r ^= r << 13;
+    r ^= r >> 7;
+    r ^= r << 17;
+    return r;
+  };
+  for (int round = 0; round < rounds; ++round) {
+    // Split or merge a few nodes, keeping a split node's parent split (as adaptivity does).
+    for (int k = 0; k < 3; ++k) {
+      const int l = int(next() % std::uint64_t(n - 1));
+      const auto node = std::int32_t(next() % h.meshes[std::size_t(l)].node_count());
+      const bool split = targets[std::size_t(l)][std::size_t(node)] == l;
+      const int parent_ok = l == 0 || targets[std::size_t(l) - 1][std::size_t(h.links[std::size_t(l)].parent[std::size_t(node)])] > l - 1;
+      if (split && !parent_ok) continue;
+      int t = split ? l + 1 : l;
+      if (!split) {  // merge only if no child is split
+        const auto& lk = h.links[std::size_t(l)];
+        bool child_split = false;
+        for (auto c = lk.child_offsets[std::size_t(node)]; c < lk.child_offsets[std::size_t(node) + 1]; ++c)
+          child_split |= targets[std::size_t(l) + 1][std::size_t(lk.children[std::size_t(c)])] > l + 1;
+        if (child_split) continue;
+      }
+      targets[std::size_t(l)][std::size_t(node)] = t;
+      state.set_target(l, node, t);
+    }
+    const auto ch = state.update();
+    const detail::ActivationState fresh(h, targets);
+    std::string why;
+    ASSERT_TRUE(same_state(state, fresh, why)) << "round " << round << ": " << why;
+    (void)ch;
+  }
+}
+
+TEST(ActivationState, IncrementalUpdatesMatchAFreshEvaluationOnANestedBox) {
+  incremental_matches_fresh(box_hierarchy({16, 4, 4}, 3), 60, 0x9e3779b97f4a7c15ull);
+}
+
+#ifdef PLIANT_HAS_CGAL
+TEST(ActivationState, IncrementalUpdatesMatchAFreshEvaluationOnTheOrgan) {
+  BodyDef b;
+  b.mesh.kind = MeshSourceDef::Kind::implicit;
+  b.mesh.shape = "organ";
+  b.mesh.cell_size = 0.01;
+  b.multiresolution.levels = 3;
+  const Hierarchy h = link_levels(build_level_meshes(b, build_mesh(b.mesh)));
+  incremental_matches_fresh(h, 200, 0x2545f4914f6cdd1dull);
+}
+#endif
+
+}  // namespace
+}  // namespace pliant

@@ -8,6 +8,7 @@
 
 #include "pliant/error.hpp"
 #include "tet_locator.hpp"
+#include <array>
 
 namespace pliant::detail {
 namespace {
@@ -129,94 +130,361 @@ std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& 
 }
 
 Activation activate(const Hierarchy& h, const ActiveDef& active) {
-  const int n = int(h.levels());
-  const auto target = node_targets(h, active);
-  Activation a;
-  a.levels.resize(std::size_t(n));
+  return ActivationState(h, node_targets(h, active)).snapshot();
+}
 
-  // Step 2: present, refined, stepped tets.
-  std::vector<std::vector<std::uint8_t>> present(static_cast<std::size_t>(n)), refined(static_cast<std::size_t>(n));
-  for (int l = 0; l < n; ++l) {
-    const TetMesh& m = h.meshes[std::size_t(l)];
-    auto& pr = present[std::size_t(l)];
-    auto& rf = refined[std::size_t(l)];
+namespace {
+
+void sort_unique(std::vector<std::int32_t>& v) {
+  std::sort(v.begin(), v.end());
+  v.erase(std::unique(v.begin(), v.end()), v.end());
+}
+
+}  // namespace
+
+ActivationState::~ActivationState() = default;
+
+ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int>> targets) : h_(h), targets_(std::move(targets)) {
+  const std::size_t n = h.levels();
+  constexpr int kFace[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  tet_locators_.resize(n);
+  node_locators_.resize(n);
+  reach_.resize(n);
+  node_tet_offsets_.resize(n);
+  node_tet_list_.resize(n);
+  child_offsets_.resize(n);
+  child_list_.resize(n);
+  neighbours_.resize(n);
+  present_.resize(n);
+  refined_.resize(n);
+  stepped_.resize(n);
+  stepped_incident_.resize(n);
+  role_.resize(n);
+  sources_.resize(n);
+  dependents_.resize(n);
+  reads_.resize(n);
+  dirty_targets_.resize(n);
+  for (std::size_t l = 0; l < n; ++l) {
+    const TetMesh& m = h.meshes[l];
+    tet_locators_[l] = std::make_unique<TetLocator>(m);
+    node_locators_[l] = std::make_unique<NodeLocator>(m);
+    // Non-nested meshes leave slivers between the stepped tets of neighbouring levels; a node of a
+    // finer level this close to a coarser stepped tet (a quarter of its own level's mean edge) is
+    // still tied to it (its weights there extrapolate slightly), so that no stepped part floats free.
+    reach_[l] = 0.25 * mean_edge(m);
+    auto& off = node_tet_offsets_[l];
+    off.assign(m.node_count() + 1, 0);
+    for (const Tet& t : m.tets)
+      for (int c = 0; c < 4; ++c) ++off[std::size_t(t[std::size_t(c)]) + 1];
+    for (std::size_t i = 0; i < m.node_count(); ++i) off[i + 1] += off[i];
+    node_tet_list_[l].resize(std::size_t(off.back()));
+    {
+      std::vector<std::int32_t> cursor(off.begin(), off.end() - 1);
+      for (std::size_t t = 0; t < m.tet_count(); ++t)
+        for (int c = 0; c < 4; ++c) node_tet_list_[l][std::size_t(cursor[std::size_t(m.tets[t][std::size_t(c)])]++)] = std::int32_t(t);
+    }
+    std::map<std::array<std::int32_t, 3>, std::array<std::int32_t, 2>> faces;
+    for (std::size_t t = 0; t < m.tet_count(); ++t)
+      for (const auto& f : kFace) {
+        std::array<std::int32_t, 3> key{m.tets[t][std::size_t(f[0])], m.tets[t][std::size_t(f[1])], m.tets[t][std::size_t(f[2])]};
+        std::sort(key.begin(), key.end());
+        auto [it, fresh] = faces.try_emplace(key, std::array<std::int32_t, 2>{std::int32_t(t), -1});
+        if (!fresh) it->second[1] = std::int32_t(t);
+      }
+    neighbours_[l].assign(m.tet_count(), {-1, -1, -1, -1});
+    for (const auto& [key, pair] : faces)
+      if (pair[1] >= 0) {
+        for (int side = 0; side < 2; ++side) {
+          auto& nb = neighbours_[l][std::size_t(pair[std::size_t(side)])];
+          for (auto& slot : nb)
+            if (slot < 0) {
+              slot = pair[std::size_t(1 - side)];
+              break;
+            }
+        }
+      }
+  }
+  for (std::size_t l = 0; l + 1 < n; ++l) {  // tet -> the finer tets whose parent it is
+    const auto& parent = h.links[l + 1].tet_parent;
+    auto& off = child_offsets_[l];
+    off.assign(h.meshes[l].tet_count() + 1, 0);
+    for (auto p : parent)
+      if (p >= 0) ++off[std::size_t(p) + 1];
+    for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t) off[t + 1] += off[t];
+    child_list_[l].resize(std::size_t(off.back()));
+    std::vector<std::int32_t> cursor(off.begin(), off.end() - 1);
+    for (std::size_t c = 0; c < parent.size(); ++c)
+      if (parent[c] >= 0) child_list_[l][std::size_t(cursor[std::size_t(parent[c])]++)] = std::int32_t(c);
+  }
+
+  // The whole body, as for a static split.
+  for (std::size_t l = 0; l < n; ++l) {
+    const TetMesh& m = h.meshes[l];
+    auto& pr = present_[l];
+    auto& rf = refined_[l];
     pr.assign(m.tet_count(), 0);
     rf.assign(m.tet_count(), 0);
     for (std::size_t t = 0; t < m.tet_count(); ++t) {
       if (l == 0) {
         pr[t] = 1;
       } else {
-        const std::int32_t p = h.links[std::size_t(l)].tet_parent[t];
-        pr[t] = p >= 0 && present[std::size_t(l) - 1][std::size_t(p)] && refined[std::size_t(l) - 1][std::size_t(p)];
+        const std::int32_t p = h.links[l].tet_parent[t];
+        pr[t] = p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)];
       }
       if (l + 1 < n)
-        for (int c = 0; c < 4; ++c) rf[t] |= std::uint8_t(target[std::size_t(l)][std::size_t(m.tets[t][std::size_t(c)])] > l);
+        for (int c = 0; c < 4; ++c) rf[t] |= std::uint8_t(targets_[l][std::size_t(m.tets[t][std::size_t(c)])] > int(l));
     }
     if (l + 1 < n) refine_dangling(m, pr, rf);
-    auto& st = a.levels[std::size_t(l)].stepped;
-    st.resize(m.tet_count());
-    for (std::size_t t = 0; t < m.tet_count(); ++t) st[t] = pr[t] && !rf[t];
+    stepped_[l].resize(m.tet_count());
+    stepped_incident_[l].assign(m.node_count(), 0);
+    for (std::size_t t = 0; t < m.tet_count(); ++t) {
+      stepped_[l][t] = pr[t] && !rf[t];
+      if (stepped_[l][t])
+        for (int c = 0; c < 4; ++c) ++stepped_incident_[l][std::size_t(m.tets[t][std::size_t(c)])];
+    }
+    role_[l].assign(m.node_count(), NodeRole::inactive);
+    sources_[l].assign(m.node_count(), {});
+    reads_[l].assign(m.node_count(), {-1, -1, -1, -1, -1});
+    dependents_[l].assign(m.node_count(), {});
   }
+  for (std::size_t l = 0; l < n; ++l) {
+    bool changed = false;
+    for (std::size_t i = 0; i < h.meshes[l].node_count(); ++i) evaluate_node(int(l), std::int32_t(i), changed);
+  }
+}
 
-  // Step 3: roles and ghost sources, coarse to fine (a ghost's sources are final before it).
-  std::vector<TetLocator> locators;
-  locators.reserve(std::size_t(n));
-  for (int l = 0; l < n; ++l) locators.emplace_back(h.meshes[std::size_t(l)]);
-  // Non-nested meshes leave slivers between the stepped tets of neighbouring levels; a node of a
-  // finer level this close to a coarser stepped tet (a quarter of its own level's mean edge) is
-  // still tied to it (its weights there extrapolate slightly), so that no stepped part floats free.
-  std::vector<double> reach(static_cast<std::size_t>(n));
-  for (int l = 0; l < n; ++l) reach[std::size_t(l)] = 0.25 * mean_edge(h.meshes[std::size_t(l)]);
-  for (int l = 0; l < n; ++l) {
-    const TetMesh& m = h.meshes[std::size_t(l)];
-    LevelActivation& la = a.levels[std::size_t(l)];
-    std::vector<std::uint8_t> used(m.node_count(), 0);
-    for (std::size_t t = 0; t < m.tet_count(); ++t)
-      if (la.stepped[t])
-        for (int c = 0; c < 4; ++c) used[std::size_t(m.tets[t][std::size_t(c)])] = 1;
-    la.role.assign(m.node_count(), NodeRole::inactive);
-    la.source_offsets.assign(1, 0);
-    std::vector<GhostSource> acc;
-    for (std::size_t i = 0; i < m.node_count(); ++i) {
-      if (!used[i]) continue;
-      la.role[i] = NodeRole::active;
-      for (int c = 0; c < l; ++c) {  // the coarsest stepped tet covering the node
-        const TetLink link =
-            locators[std::size_t(c)].containing_or_near(m.point(i), a.levels[std::size_t(c)].stepped, reach[std::size_t(l)]);
-        if (link.tet < 0) continue;
-        la.role[i] = NodeRole::ghost;
-        acc.clear();
-        const LevelActivation& lc = a.levels[std::size_t(c)];
-        const Tet& tet = h.meshes[std::size_t(c)].tets[std::size_t(link.tet)];
-        for (int k = 0; k < 4; ++k) {
-          const std::int32_t s = tet[std::size_t(k)];
-          if (lc.role[std::size_t(s)] == NodeRole::active) {
-            acc.push_back({c, s, link.weights[std::size_t(k)]});
-          } else {  // a ghost corner: its own (active) sources
-            const auto g = std::lower_bound(lc.ghosts.begin(), lc.ghosts.end(), s) - lc.ghosts.begin();
-            for (auto e = lc.source_offsets[std::size_t(g)]; e < lc.source_offsets[std::size_t(g) + 1]; ++e) {
-              GhostSource src = lc.sources[std::size_t(e)];
-              src.weight *= link.weights[std::size_t(k)];
-              acc.push_back(src);
-            }
+std::pair<const std::int32_t*, const std::int32_t*> ActivationState::node_tets(int l, std::int32_t node) const {
+  const auto& off = node_tet_offsets_[std::size_t(l)];
+  const std::int32_t* base = node_tet_list_[std::size_t(l)].data();
+  return {base + off[std::size_t(node)], base + off[std::size_t(node) + 1]};
+}
+
+void ActivationState::evaluate_node(int l, std::int32_t i, bool& changed) {
+  NodeRole role = NodeRole::inactive;
+  std::vector<GhostSource> acc;
+  std::array<std::int32_t, 5> reads{-1, -1, -1, -1, -1};  // the level and corners of the tet it reads
+  if (stepped_incident_[std::size_t(l)][std::size_t(i)] > 0) {
+    role = NodeRole::active;
+    const Vec3d p = h_.meshes[std::size_t(l)].point(std::size_t(i));
+    for (int c = 0; c < l; ++c) {  // the coarsest stepped tet covering the node
+      const TetLink link = tet_locators_[std::size_t(c)]->containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]);
+      if (link.tet < 0) continue;
+      role = NodeRole::ghost;
+      const Tet& tet = h_.meshes[std::size_t(c)].tets[std::size_t(link.tet)];
+      reads = {c, tet[0], tet[1], tet[2], tet[3]};
+      for (int k = 0; k < 4; ++k) {
+        const std::int32_t s = tet[std::size_t(k)];
+        if (role_[std::size_t(c)][std::size_t(s)] == NodeRole::active) {
+          acc.push_back({c, s, link.weights[std::size_t(k)]});
+        } else {  // a ghost corner: its own (active) sources
+          for (GhostSource src : sources_[std::size_t(c)][std::size_t(s)]) {
+            src.weight *= link.weights[std::size_t(k)];
+            acc.push_back(src);
           }
         }
-        std::sort(acc.begin(), acc.end(), [](const GhostSource& x, const GhostSource& y) {
-          return x.level != y.level ? x.level < y.level : x.node < y.node;
-        });
-        std::size_t out = 0;
-        for (std::size_t e = 0; e < acc.size(); ++e) {
-          if (out > 0 && acc[out - 1].level == acc[e].level && acc[out - 1].node == acc[e].node)
-            acc[out - 1].weight += acc[e].weight;
-          else
-            acc[out++] = acc[e];
-        }
-        acc.resize(out);
-        la.ghosts.push_back(std::int32_t(i));
-        la.sources.insert(la.sources.end(), acc.begin(), acc.end());
-        la.source_offsets.push_back(std::int32_t(la.sources.size()));
-        break;
       }
+      std::sort(acc.begin(), acc.end(), [](const GhostSource& x, const GhostSource& y) {
+        return x.level != y.level ? x.level < y.level : x.node < y.node;
+      });
+      std::size_t out = 0;
+      for (std::size_t e = 0; e < acc.size(); ++e) {
+        if (out > 0 && acc[out - 1].level == acc[e].level && acc[out - 1].node == acc[e].node)
+          acc[out - 1].weight += acc[e].weight;
+        else
+          acc[out++] = acc[e];
+      }
+      acc.resize(out);
+      break;
+    }
+  }
+  auto& old_sources = sources_[std::size_t(l)][std::size_t(i)];
+  auto same = [&] {
+    if (role != role_[std::size_t(l)][std::size_t(i)] || acc.size() != old_sources.size()) return false;
+    for (std::size_t e = 0; e < acc.size(); ++e)
+      if (acc[e].level != old_sources[e].level || acc[e].node != old_sources[e].node || acc[e].weight != old_sources[e].weight)
+        return false;
+    return true;
+  };
+  // A ghost depends on the corners of the tet it reads (their roles and sources make its own).
+  auto& old_reads = reads_[std::size_t(l)][std::size_t(i)];
+  if (old_reads != reads) {
+    for (int k = 1; k < 5 && old_reads[0] >= 0; ++k) {
+      auto& d = dependents_[std::size_t(old_reads[0])][std::size_t(old_reads[std::size_t(k)])];
+      d.erase(std::remove(d.begin(), d.end(), std::pair<std::int32_t, std::int32_t>{l, i}), d.end());
+    }
+    for (int k = 1; k < 5 && reads[0] >= 0; ++k)
+      dependents_[std::size_t(reads[0])][std::size_t(reads[std::size_t(k)])].push_back({l, i});
+    old_reads = reads;
+  }
+  if (same()) return;
+  changed = true;
+  role_[std::size_t(l)][std::size_t(i)] = role;
+  old_sources = std::move(acc);
+}
+
+void ActivationState::set_target(int l, std::int32_t node, int target) {
+  if (targets_[std::size_t(l)][std::size_t(node)] == target) return;
+  targets_[std::size_t(l)][std::size_t(node)] = target;
+  dirty_targets_[std::size_t(l)].push_back(node);
+}
+
+ActivationState::Changes ActivationState::update() {
+  const std::size_t n = h_.levels();
+  Changes ch;
+  ch.tets_on.resize(n);
+  ch.tets_off.resize(n);
+  ch.nodes.resize(n);
+  std::vector<std::vector<std::int32_t>> nodes(n);  // to evaluate, per level
+  std::vector<std::int32_t> from_parents;           // tets of this level whose parent changed
+  for (std::size_t l = 0; l < n; ++l) {
+    const TetMesh& m = h_.meshes[l];
+    std::vector<std::int32_t> cand = std::move(from_parents);
+    from_parents.clear();
+    sort_unique(dirty_targets_[l]);
+    for (auto node : dirty_targets_[l]) {
+      auto [b, e] = node_tets(int(l), node);
+      cand.insert(cand.end(), b, e);
+    }
+    dirty_targets_[l].clear();
+    sort_unique(cand);
+    // The tets whose refinement rule may give another answer: the candidates and their face
+    // neighbours (a dangling tet is one whose neighbours changed).
+    std::vector<std::int32_t> region = cand;
+    for (auto t : cand)
+      for (auto nb : neighbours_[l][std::size_t(t)])
+        if (nb >= 0) region.push_back(nb);
+    // With them, every tet refined only by the dangling rule that touches the region (through such
+    // tets): once the refinement that made them dangle is gone they may not dangle any more. The
+    // rule's least fixed point is then recomputed from the targets over the whole region.
+    if (l + 1 < n) {
+      sort_unique(region);
+      std::vector<std::int32_t> stack = region;
+      std::vector<std::int32_t> seen = region;
+      while (!stack.empty()) {
+        const auto t = stack.back();
+        stack.pop_back();
+        for (auto nb : neighbours_[l][std::size_t(t)]) {
+          if (nb < 0 || !refined_[l][std::size_t(nb)] || std::binary_search(seen.begin(), seen.end(), nb)) continue;
+          bool by_target = false;
+          for (int c = 0; c < 4; ++c) by_target |= targets_[l][std::size_t(m.tets[std::size_t(nb)][std::size_t(c)])] > int(l);
+          if (by_target) continue;  // refined by its corners, not by the dangling rule
+          seen.insert(std::upper_bound(seen.begin(), seen.end(), nb), nb);
+          region.push_back(nb);
+          stack.push_back(nb);
+        }
+      }
+    }
+    sort_unique(region);
+    std::vector<std::uint8_t> was_stepped, was_split;
+    was_stepped.reserve(region.size());
+    was_split.reserve(region.size());
+    for (auto t : region) {
+      was_stepped.push_back(stepped_[l][std::size_t(t)]);
+      was_split.push_back(present_[l][std::size_t(t)] && refined_[l][std::size_t(t)]);
+      // Present from the parent, refined from the corners' targets; the dangling rule below.
+      if (l > 0) {
+        const std::int32_t p = h_.links[l].tet_parent[std::size_t(t)];
+        present_[l][std::size_t(t)] = p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)];
+      }
+      std::uint8_t rf = 0;
+      if (l + 1 < n)
+        for (int c = 0; c < 4; ++c) rf |= std::uint8_t(targets_[l][std::size_t(m.tets[std::size_t(t)][std::size_t(c)])] > int(l));
+      refined_[l][std::size_t(t)] = rf;
+    }
+    if (l + 1 < n) {
+      // The rule's cascade may refine tets beyond the region: they join it (stepped before, since
+      // they were present and unrefined).
+      std::vector<std::int32_t> cascade;
+      for (std::size_t k = 0; k < region.size(); ++k) refine_rule(int(l), region[k], cascade);
+      for (auto t : cascade)
+        if (!std::binary_search(region.begin(), region.begin() + std::ptrdiff_t(was_stepped.size()), t)) {
+          region.push_back(t);
+          was_stepped.push_back(present_[l][std::size_t(t)]);
+          was_split.push_back(0);
+        }
+    }
+    ch.tets_examined += region.size();
+    for (std::size_t k = 0; k < region.size(); ++k) {
+      const auto t = region[k];
+      const std::uint8_t now = present_[l][std::size_t(t)] && !refined_[l][std::size_t(t)];
+      const std::uint8_t split = present_[l][std::size_t(t)] && refined_[l][std::size_t(t)];
+      if (split != was_split[k] && l + 1 < n)
+        from_parents.insert(from_parents.end(), child_list_[l].begin() + child_offsets_[l][std::size_t(t)],
+                            child_list_[l].begin() + child_offsets_[l][std::size_t(t) + 1]);
+      if (now == was_stepped[k]) continue;
+      stepped_[l][std::size_t(t)] = now;
+      (now ? ch.tets_on : ch.tets_off)[l].push_back(t);
+      Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+      for (int c = 0; c < 4; ++c) {
+        const std::int32_t v = m.tets[std::size_t(t)][std::size_t(c)];
+        stepped_incident_[l][std::size_t(v)] += now ? 1 : -1;
+        nodes[l].push_back(v);
+        const Vec3d p = m.point(std::size_t(v));
+        for (int d = 0; d < 3; ++d) {
+          lo[std::size_t(d)] = std::min(lo[std::size_t(d)], p[std::size_t(d)]);
+          hi[std::size_t(d)] = std::max(hi[std::size_t(d)], p[std::size_t(d)]);
+        }
+      }
+      for (std::size_t f = l + 1; f < n; ++f) {  // the finer nodes this tet covers (or covered)
+        const double r = reach_[f];
+        node_locators_[f]->in_box({lo[0] - r, lo[1] - r, lo[2] - r}, {hi[0] + r, hi[1] + r, hi[2] + r}, nodes[f]);
+      }
+    }
+  }
+  // Roles, coarse to fine: a ghost's sources are final before it; a node whose role or sources
+  // changed sends the ghosts that read it to be evaluated again.
+  for (std::size_t l = 0; l < n; ++l) {
+    sort_unique(nodes[l]);
+    ch.nodes_examined += nodes[l].size();
+    for (auto v : nodes[l]) {
+      bool changed = false;
+      evaluate_node(int(l), v, changed);
+      if (!changed) continue;
+      ch.nodes[l].push_back(v);
+      for (const auto& [dl, dn] : dependents_[l][std::size_t(v)]) nodes[std::size_t(dl)].push_back(dn);
+    }
+  }
+  return ch;
+}
+
+// The dangling rule of refine_dangling at one tet, and at its neighbours when it changes; the tets
+// it refines are appended to `refined_now`.
+void ActivationState::refine_rule(int l, std::int32_t t0, std::vector<std::int32_t>& refined_now) {
+  std::vector<std::int32_t> work{t0};
+  auto& pr = present_[std::size_t(l)];
+  auto& rf = refined_[std::size_t(l)];
+  while (!work.empty()) {
+    const std::int32_t t = work.back();
+    work.pop_back();
+    if (!pr[std::size_t(t)] || rf[std::size_t(t)]) continue;
+    int against = 0, with = 0;
+    for (auto u : neighbours_[std::size_t(l)][std::size_t(t)]) {
+      if (u < 0) continue;
+      against += pr[std::size_t(u)] && rf[std::size_t(u)];
+      with += pr[std::size_t(u)] && !rf[std::size_t(u)];
+    }
+    if (against >= 3 || (with == 0 && against > 0)) {
+      rf[std::size_t(t)] = 1;
+      refined_now.push_back(t);
+      for (auto u : neighbours_[std::size_t(l)][std::size_t(t)])
+        if (u >= 0) work.push_back(u);
+    }
+  }
+}
+
+Activation ActivationState::snapshot() const {
+  Activation a;
+  a.levels.resize(h_.levels());
+  for (std::size_t l = 0; l < h_.levels(); ++l) {
+    LevelActivation& la = a.levels[l];
+    la.stepped = stepped_[l];
+    la.role = role_[l];
+    la.source_offsets.assign(1, 0);
+    for (std::size_t i = 0; i < role_[l].size(); ++i) {
+      if (role_[l][i] != NodeRole::ghost) continue;
+      la.ghosts.push_back(std::int32_t(i));
+      la.sources.insert(la.sources.end(), sources_[l][i].begin(), sources_[l][i].end());
+      la.source_offsets.push_back(std::int32_t(la.sources.size()));
     }
   }
   return a;

@@ -20,7 +20,10 @@
 // With nested meshes this is finite elements with hanging-node constraints: exact patch test,
 // exact mass, exact momentum.
 #pragma once
+#include <array>
 #include <cstdint>
+#include <memory>
+#include <utility>
 #include <vector>
 
 #include "pliant/defs.hpp"
@@ -51,5 +54,63 @@ struct Activation {
 std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& active);
 
 Activation activate(const Hierarchy& h, const ActiveDef& active);
+
+class TetLocator;
+class NodeLocator;
+
+// The same rule kept as a state that can change: adaptivity (issue 14) sets new targets on a few
+// nodes and update() re-evaluates only what they can reach — the tets around them and their
+// descendants, the dangling tets next to those, the nodes of those tets, the finer nodes those tets
+// cover, and the ghosts that read a node whose role changed — never the whole body. Tets and nodes
+// are numbered as in the hierarchy's meshes.
+class ActivationState {
+ public:
+  ActivationState(const Hierarchy& h, std::vector<std::vector<int>> targets);
+  ~ActivationState();
+  ActivationState(const ActivationState&) = delete;
+  ActivationState& operator=(const ActivationState&) = delete;
+
+  const Hierarchy& hierarchy() const { return h_; }
+  int levels() const { return int(h_.levels()); }
+  int target(int l, std::int32_t node) const { return targets_[std::size_t(l)][std::size_t(node)]; }
+  bool stepped(int l, std::int32_t tet) const { return stepped_[std::size_t(l)][std::size_t(tet)] != 0; }
+  const std::vector<std::uint8_t>& stepped_mask(int l) const { return stepped_[std::size_t(l)]; }
+  NodeRole role(int l, std::int32_t node) const { return role_[std::size_t(l)][std::size_t(node)]; }
+  const std::vector<GhostSource>& sources(int l, std::int32_t node) const { return sources_[std::size_t(l)][std::size_t(node)]; }
+  // The tets of level l around a node (hierarchy numbering).
+  std::pair<const std::int32_t*, const std::int32_t*> node_tets(int l, std::int32_t node) const;
+
+  struct Changes {
+    std::vector<std::vector<std::int32_t>> tets_on, tets_off;  // per level: tets that start / stop being stepped
+    std::vector<std::vector<std::int32_t>> nodes;              // per level: nodes whose role or sources changed
+    std::size_t tets_examined = 0, nodes_examined = 0;          // the work done (for the cost measurements)
+  };
+  // Sets a node's target level (it takes effect at the next update()).
+  void set_target(int l, std::int32_t node, int target);
+  Changes update();
+
+  Activation snapshot() const;  // every level in the CSR form of Activation
+
+ private:
+  void refine_rule(int l, std::int32_t t, std::vector<std::int32_t>& refined_now);
+  void evaluate_node(int l, std::int32_t node, bool& changed);
+
+  const Hierarchy& h_;
+  std::vector<std::unique_ptr<TetLocator>> tet_locators_;
+  std::vector<std::unique_ptr<NodeLocator>> node_locators_;
+  std::vector<double> reach_;                                     // per level (m)
+  std::vector<std::vector<std::int32_t>> node_tet_offsets_, node_tet_list_;  // per level, CSR node -> tets
+  std::vector<std::vector<std::int32_t>> child_offsets_, child_list_;         // per level, CSR tet -> tets of l + 1
+  std::vector<std::vector<std::array<std::int32_t, 4>>> neighbours_;          // per level, face neighbours (-1: boundary)
+  std::vector<std::vector<int>> targets_;
+  std::vector<std::vector<std::uint8_t>> present_, refined_, stepped_;
+  std::vector<std::vector<std::int32_t>> stepped_incident_;  // per level, per node: stepped tets around it
+  std::vector<std::vector<NodeRole>> role_;
+  std::vector<std::vector<std::vector<GhostSource>>> sources_;
+  // per level, per node: the ghosts (level, node) that read it (it is a corner of the tet they read)
+  std::vector<std::vector<std::vector<std::pair<std::int32_t, std::int32_t>>>> dependents_;
+  std::vector<std::vector<std::array<std::int32_t, 5>>> reads_;  // per ghost: level and corners of the tet it reads
+  std::vector<std::vector<std::int32_t>> dirty_targets_;  // per level
+};
 
 }  // namespace pliant::detail

@@ -229,6 +229,21 @@ NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
   for (std::size_t i = 0; i < mesh.node_count(); ++i) items_[std::size_t(cursor[b[i]]++)] = std::int32_t(i);
 }
 
+void NodeLocator::in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const {
+  const auto a = cell(lo, lo_, size_, dims_), b = cell(hi, lo_, size_, dims_);
+  for (int z = a[2]; z <= b[2]; ++z)
+    for (int y = a[1]; y <= b[1]; ++y)
+      for (int x = a[0]; x <= b[0]; ++x) {
+        const std::size_t k = (std::size_t(z) * std::size_t(dims_[1]) + std::size_t(y)) * std::size_t(dims_[0]) + std::size_t(x);
+        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
+          const std::int32_t n = items_[std::size_t(i)];
+          const Vec3d q = mesh_.point(std::size_t(n));
+          if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
+            out.push_back(n);
+        }
+      }
+}
+
 std::int32_t NodeLocator::nearest(const Vec3d& p) const {
   const auto c = cell(p, lo_, size_, dims_);
   std::int32_t best = -1;

@@ -44,6 +44,8 @@ class NodeLocator {
  public:
   explicit NodeLocator(const TetMesh& mesh);
   std::int32_t nearest(const Vec3d& p) const;  // nearest node (lowest index on ties)
+  // Appends to `out` the nodes inside the box [lo, hi] (inclusive), in bucket order.
+  void in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const;
 
  private:
   const TetMesh& mesh_;
