@@ -83,6 +83,20 @@ void check_material(const MaterialDef& m, const std::string& body) {
     bad("damping.shear_viscosity", *m.damping.shear_viscosity, ">= 0 (Pa s)");
 }
 
+// The springs model has no bulk or shear: its dashpots are beta (damping.stiffness) times each
+// spring's stiffness. Viscosities given for it would be silently ignored, so they are refused.
+void check_model_damping(const MaterialDef& m, ForceModel model, const std::string& body) {
+  if (model != ForceModel::springs) return;
+  for (const auto& [field, value] : {std::pair{"bulk_viscosity", m.damping.bulk_viscosity},
+                                     std::pair{"shear_viscosity", m.damping.shear_viscosity}})
+    if (value)
+      throw InputError(fmt::format(
+          "body '{}': material.damping.{} is not used by the springs model (a spring network has no bulk or "
+          "shear viscosity: its dashpots are damping.stiffness times each spring's stiffness); remove it and use "
+          "damping.stiffness, or choose another model",
+          body, field));
+}
+
 struct Lame {
   double lambda, mu;
 };
@@ -122,6 +136,7 @@ template <class T>
 Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& def, double courant,
                      std::vector<MotionState>& motions, Executor& exec) {
   check_material(def.material, def.name);
+  check_model_damping(def.material, def.model, def.name);
   Level<T> L;
   const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
   L.node_count = nn;
