@@ -24,6 +24,10 @@ for key in steps simulated_time wall_time_s nodes tets model precision threads d
 done
 check run_overrides 0 "float" -- "$pliant" run "$work/good.json" --out "$work/out2" --threads 1 --precision float --duration 0.002
 check run_quiet_silent 0 "" -- "$pliant" run "$work/good.json" --out "$work/out3" --quiet
+# A duration whose step count cannot be counted (it ran 0 steps and said ok): refused, exit 2.
+check run_duration_huge 2 "duration 1e\+30 s .*steps" -- "$pliant" run "$work/good.json" --out "$work/o" --duration 1e30
+scene huge "{\"duration\": 1e30, \"bodies\": [{\"name\": \"b\", $box, $fixed}]}"
+check scene_duration_huge 2 "duration 1e\+30 s .*steps" -- "$pliant" run "$work/huge.json" --out "$work/o"
 if [ ! -s "$work/run_quiet_silent.out" ]; then echo "ok   quiet prints nothing"; passed=$((passed+1)); else echo "FAIL quiet printed"; failed=$((failed+1)); fi
 
 scene poisson "{\"bodies\": [{$box, \"material\": {\"poisson\": 0.7}}]}"

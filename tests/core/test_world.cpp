@@ -4,6 +4,9 @@
 #include <gmock/gmock.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
 #include <cmath>
 #include <vector>
 
@@ -526,6 +529,58 @@ TEST(Runner, SummaryHasTheDocumentedFields) {
   EXPECT_EQ(s.state_hash.size(), 16u);
   EXPECT_EQ(s.model, "corotational");
   EXPECT_GT(s.max_displacement, 0.0);
+}
+
+// A duration whose step count does not fit was run as 0 steps with status "ok" (the count
+// overflowed int64). What cannot be run is refused, naming the duration, the step and the limit;
+// the largest runnable count still runs (checked by its count only: the limit is 2^53 steps).
+TEST(Runner, ADurationTooLongToCountIsRefused) {
+  SceneDef scene;
+  scene.bodies.push_back(beam_def(ForceModel::corotational));
+  RunOptions opt;
+  opt.write_files = false;
+  for (double duration : {1e30, 1e300}) {
+    scene.duration = duration;
+    try {
+      (void)run_scene(scene, opt);
+      ADD_FAILURE() << "duration " << duration << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("duration"));
+      EXPECT_THAT(e.what(), HasSubstr("steps"));
+    }
+  }
+  scene.duration = 1.0;
+  opt.duration = 1e30;  // the override (`pliant run --duration`) too
+  EXPECT_THROW((void)run_scene(scene, opt), InputError);
+}
+
+// Output intervals far below the step (1e-20 s: below the rounding unit of the time itself)
+// record once per step. The runner advanced "next record" by adding the interval until it passed
+// the time: 1e16 additions per step, a hang. Probes, VTU frames and the frame callback.
+TEST(Runner, OutputIntervalsBelowTheStepRecordOncePerStep) {
+  SceneDef scene;
+  scene.duration = 0.002;
+  scene.bodies.push_back(beam_def(ForceModel::corotational));
+  scene.probes.push_back({"tip", "beam", {0.4, 0.05, 0.05}});
+  scene.output.probe_every = 1e-20;
+  scene.output.vtu_every = 1e-20;
+  RunOptions opt;
+  opt.out_dir = std::filesystem::temp_directory_path() / fmt::format("pliant_test_runner_{}", ::getpid());
+  int frames = 0;
+  opt.frame_every = 1e-20;
+  opt.on_frame = [&](const World&) { ++frames; };
+  const RunSummary s = run_scene(scene, opt);
+  ASSERT_GT(s.steps, 5);
+  EXPECT_EQ(frames, s.steps + 1);  // the initial state, then every step
+  std::size_t vtus = 0;
+  for (const auto& f : s.files) vtus += f.rfind("vtu/", 0) == 0;
+  EXPECT_EQ(vtus, std::size_t(s.steps + 1));
+  std::ifstream csv(opt.out_dir / "probes.csv");
+  std::string line;
+  std::int64_t rows = -1;  // the header
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, s.steps + 1);
+  std::filesystem::remove_all(opt.out_dir);
 }
 
 }  // namespace

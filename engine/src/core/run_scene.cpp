@@ -81,6 +81,15 @@ class VtuSeries {
   int frame_ = 0;
 };
 
+// When the next record is due after one at time t (s): the first multiple of `every` (s, > 0)
+// past t + eps, in closed form. Adding `every` until past t cost t / every additions, a hang for
+// intervals far below the step (and forever once `every` is below the rounding unit of t).
+double next_due(double every, double t, double eps) {
+  const double k = std::floor((t + eps) / every) + 1;
+  const double next = k * every;
+  return next > t + eps ? next : (k + 1) * every;  // (k + 1): k * every rounded down onto t
+}
+
 void write_summary(const fs::path& path, const RunSummary& s) {
   nlohmann::ordered_json j;
   j["status"] = s.status;
@@ -140,7 +149,17 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
     const std::string m = to_string(world.body_def(BodyId(b)).model);
     if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
   }
-  const std::int64_t total_steps = std::int64_t(std::ceil(duration / world.dt() - 1e-9));
+  // Whole steps up to the duration, at most 2^53: beyond that the simulated time (a double,
+  // advanced by dt each step) no longer advances by whole steps. A count beyond int64 (1e30 s)
+  // used to overflow and run 0 steps reporting "ok".
+  const double step_count = std::ceil(duration / world.dt() - 1e-9);
+  constexpr double kMaxSteps = 9007199254740992.0;  // 2^53
+  if (!(step_count <= kMaxSteps))
+    throw InputError(fmt::format(
+        "duration {:g} s needs {:.3g} steps of {:.4g} s; at most 2^53 = {:.4g} steps can be run (the simulated time, "
+        "a double, stops advancing by whole steps beyond that): give a shorter duration",
+        duration, step_count, world.dt(), kMaxSteps));
+  const std::int64_t total_steps = std::int64_t(step_count);
 
   ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
@@ -157,19 +176,17 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   try {
     for (std::int64_t i = 0; i < total_steps; ++i) {
       world.step();
-      if (world.time() + eps >= next_probe) {
+      if (world.time() + eps >= next_probe) {  // probe_every = 0: every step
         probes.write(world);
-        next_probe += scene.output.probe_every;
-        if (scene.output.probe_every > 0)
-          while (next_probe <= world.time() + eps) next_probe += scene.output.probe_every;
+        if (scene.output.probe_every > 0) next_probe = next_due(scene.output.probe_every, world.time(), eps);
       }
       if (vtu.enabled() && world.time() + eps >= next_vtu) {
         vtu.write(world, s.files);
-        while (next_vtu <= world.time() + eps) next_vtu += scene.output.vtu_every;
+        next_vtu = next_due(scene.output.vtu_every, world.time(), eps);
       }
       if (frames && world.time() + eps >= next_frame) {
         options.on_frame(world);
-        while (next_frame <= world.time() + eps) next_frame += options.frame_every;
+        next_frame = next_due(options.frame_every, world.time(), eps);
       }
       if (options.progress && (i & 63) == 0) {
         const auto now = Clock::now();
