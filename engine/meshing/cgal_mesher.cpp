@@ -47,6 +47,7 @@
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/meshing.hpp"
 
 namespace pliant {
@@ -241,9 +242,7 @@ bool meshing_available() { return true; }
 
 TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size) {
   const std::string file = surface.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(surface, ec))
-    throw InputError(fmt::format("surface file '{}': no such file", file));
+  check_input_file(surface, "surface file");  // regular files only: CGAL's readers would hang on a FIFO
   if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, "'" + file + "'");
   SurfaceMesh sm = read_closed_surface(file);
   check_cell_size(cell_size, std::abs(PMP::volume(sm)), "'" + file + "'");

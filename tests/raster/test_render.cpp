@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../support/special_files.hpp"
 #include "pliant/error.hpp"
 #include "pliant/mesh_io.hpp"
 #include "pliant/raster/image.hpp"
@@ -558,6 +559,24 @@ TEST(Recorder, BadOptionsAreRefused) {
 }
 
 // ---- stored states: a run's .vtu files ----
+
+// The .pvd files next to a stored frame are read to find its time: a FIFO or a link to /dev/zero
+// named .pvd there is skipped without being opened (it hung `pliant render`), and the time still
+// comes from the real series.pvd.
+TEST(StoredState, SpecialFilesNamedPvdBesideAFrameAreSkipped) {
+  SceneDef scene = small_scene();
+  scene.output.vtu_every = 0.01;
+  RunOptions opt;
+  opt.out_dir = scratch("stored_special");
+  run_scene(scene, opt);
+  const fs::path frame = opt.out_dir / "vtu" / "b_00001.vtu";
+  special::link_to_dev_zero(opt.out_dir / "a_zero.pvd");
+  const special::Fifo fifo(opt.out_dir / "vtu" / "a_fifo.pvd");
+  const StoredFields f = read_stored_fields(frame, read_tet_mesh(frame));
+  EXPECT_FALSE(fifo.opened());
+  ASSERT_TRUE(f.time.has_value());
+  EXPECT_NEAR(*f.time, 0.01, 1e-3);
+}
 
 TEST(StoredState, RunFramesCarryDisplacementVonMisesAndTime) {
   SceneDef scene = small_scene();

@@ -17,7 +17,8 @@ namespace pliant::meshio {
 
 [[noreturn]] void fail(const std::string& message);  // throws InputError(message)
 
-// The whole file as bytes. Throws "<path>: cannot open file (...)" or "<path>: file is empty".
+// The whole file as bytes, through read_input_file (regular files only). Throws
+// "<path>: cannot open mesh file (...)", "<path>: is a FIFO ...", or "<path>: file is empty".
 std::string read_file(const std::filesystem::path& path);
 
 std::string_view trim(std::string_view s);

@@ -13,6 +13,7 @@
 
 #include "mesh_reader_util.hpp"
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/mesh_io.hpp"
 
 namespace pliant {
@@ -21,16 +22,7 @@ namespace meshio {
 void fail(const std::string& message) { throw InputError(message); }
 
 std::string read_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    fail(fmt::format("{}: is a directory, not a mesh file", path.string()));
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    fail(fmt::format("{}: cannot open file ({})", path.string(),
-                     errno ? std::strerror(errno) : "unknown error"));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) fail(fmt::format("{}: read error", path.string()));
+  std::string text = read_input_file(path, "mesh file");  // regular files only
   if (trim(text).empty()) fail(fmt::format("{}: file is empty", path.string()));
   return text;
 }
@@ -100,8 +92,10 @@ bool LineCursor::next() {
   return true;
 }
 
-// True when the file's first non-blank bytes open an XML document.
+// True when the file's first non-blank bytes open an XML document. Only a regular file is opened
+// (a FIFO's open would block here, before the reader's own check).
 static bool looks_like_xml(const std::filesystem::path& path) {
+  check_input_file(path, "mesh file");
   std::ifstream in(path, std::ios::binary);
   char buf[256] = {};
   in.read(buf, sizeof buf);
@@ -123,7 +117,6 @@ TetMesh read_tet_mesh(const std::filesystem::path& path, MeshLoadReport* report)
   if (ext == ".vtu") return read_vtu(path, r);
   if (ext == ".node" || ext == ".ele") return read_tetgen(path, r);
   if (ext == ".vtk") {
-    // A missing file is not XML: the legacy reader then reports that it cannot be opened.
     return meshio::looks_like_xml(path) ? read_vtu(path, r) : read_vtk_legacy(path, r);
   }
   throw InputError(fmt::format(
