@@ -76,6 +76,19 @@ bool parse_double(std::string_view t, double& out) {
   return ec == std::errc() && end == t.data() + t.size();
 }
 
+long long count_limit(std::size_t file_bytes, long long per_byte) {
+  // 2^50 at most (2^40 bytes x 1024): a product of two such counts still needs a check, one
+  // count times a small factor (3 coordinates, 10 corners) does not.
+  const double limit = double(file_bytes) * double(per_byte) + 64;
+  return limit < 1125899906842624.0 ? static_cast<long long>(limit) : 1125899906842624LL;
+}
+
+void check_count(long long n, std::size_t file_bytes, long long per_byte, const std::string& where,
+                 const std::string& what) {
+  if (n < 0 || n > count_limit(file_bytes, per_byte))
+    fail(fmt::format("{}: {} is more than the file ({} bytes) can hold", where, what, file_bytes));
+}
+
 std::size_t line_of(std::string_view text, std::size_t offset) {
   offset = std::min(offset, text.size());
   return 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n'));
