@@ -68,7 +68,8 @@ struct MeshSourceDef {
   int tets_per_cell = 6;  // 5 or 6
   // file (volume mesh) or surface (closed triangle surface meshed by CGAL); absolute after loading
   std::filesystem::path path;
-  // surface or implicit: target cell size (m)
+  // surface or implicit: target cell size (m) of the body as simulated, after scale (the mesher
+  // gets cell_size / scale in the units of the surface or shape)
   double cell_size = 0;
   // implicit: name of a shipped shape ("organ", ...)
   std::string shape;

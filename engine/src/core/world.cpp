@@ -153,15 +153,32 @@ namespace {
 TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std::vector<std::int32_t>* old_to_new) {
   MeshLoadReport local;
   MeshLoadReport& rep = report ? *report : local;
+  if (!(src.scale > 0 && std::isfinite(src.scale)))
+    throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
+  // cell_size is a length of the body as simulated (m, after scale: docs/scene-format.md); the
+  // mesher works in the units of the surface or shape, before scale. It was passed as is: a
+  // surface in mm with scale 0.001 and cell_size 0.004 got 4 um cells.
+  auto meshed = [&](auto&& mesher) {
+    try {
+      return mesher(src.cell_size / src.scale);
+    } catch (const InputError& e) {
+      if (src.scale == 1.0) throw;
+      throw InputError(fmt::format("mesh.cell_size {} m with scale {} is {} in the units of the {}: {}", src.cell_size,
+                                   src.scale, src.cell_size / src.scale,
+                                   src.kind == MeshSourceDef::Kind::surface ? "surface file" : "shape", e.what()));
+    }
+  };
   TetMesh mesh;
   switch (src.kind) {
     case MeshSourceDef::Kind::box: mesh = make_box_mesh(src.min, src.max, src.cells, src.tets_per_cell); break;
     case MeshSourceDef::Kind::file: mesh = read_tet_mesh(src.path, &rep); break;
-    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size); break;
-    case MeshSourceDef::Kind::implicit: mesh = mesh_implicit_shape(src.shape, src.cell_size); break;
+    case MeshSourceDef::Kind::surface:
+      mesh = meshed([&](double h) { return mesh_surface_file(src.path, h); });
+      break;
+    case MeshSourceDef::Kind::implicit:
+      mesh = meshed([&](double h) { return mesh_implicit_shape(src.shape, h); });
+      break;
   }
-  if (!(src.scale > 0 && std::isfinite(src.scale)))
-    throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
   if (src.scale != 1.0 || src.translate != Vec3d{0, 0, 0}) transform_mesh(mesh, src.scale, src.translate);
   // Files and meshers come in no useful order; the kernels stream only if neighbours in space
   // are neighbours in memory (docs/performance.md). Readers and the mesher return finalized
