@@ -24,6 +24,10 @@ for key in steps simulated_time wall_time_s nodes tets model precision threads d
 done
 check run_overrides 0 "float" -- "$pliant" run "$work/good.json" --out "$work/out2" --threads 1 --precision float --duration 0.002
 check run_quiet_silent 0 "" -- "$pliant" run "$work/good.json" --out "$work/out3" --quiet
+# More threads than cores: clamped to the cores, and said (it was accepted and reported as 100000).
+check run_threads_clamped 0 "note: threads: 100000 threads asked, $(nproc) used" -- "$pliant" run "$work/good.json" --out "$work/othr" --threads 100000
+if [ "$(sed -n 's/^  "threads": \([0-9]*\),$/\1/p' "$work/othr/summary.json")" = "$(nproc)" ]; then
+  echo "ok   clamped threads in summary"; passed=$((passed+1)); else echo "FAIL clamped threads in summary"; failed=$((failed+1)); fi
 # A duration whose step count cannot be counted (it ran 0 steps and said ok): refused, exit 2.
 check run_duration_huge 2 "duration 1e\+30 s .*steps" -- "$pliant" run "$work/good.json" --out "$work/o" --duration 1e30
 scene huge "{\"duration\": 1e30, \"bodies\": [{\"name\": \"b\", $box, $fixed}]}"

@@ -14,6 +14,7 @@
 
 #include "pliant/level_passes.hpp"
 #include "pliant/run.hpp"
+#include "pliant/scheduler/executor.hpp"
 #include "pliant/world.hpp"
 
 namespace pliant {
@@ -552,6 +553,35 @@ TEST(Runner, ADurationTooLongToCountIsRefused) {
   scene.duration = 1.0;
   opt.duration = 1e30;  // the override (`pliant run --duration`) too
   EXPECT_THROW((void)run_scene(scene, opt), InputError);
+}
+
+// More threads than the process may use were accepted and reported (--threads 100000): TBB ran
+// on the cores it has anyway. They are clamped to the cores (Executor::default_threads(), which
+// follows the process's CPU affinity), World::threads() reports the number used, and the runner
+// says so in a note (printed by `pliant run`, kept in summary.json).
+TEST(Threads, MoreThanTheCoresAreClampedToThemAndSaid) {
+  const int cores = Executor::default_threads();
+  WorldDef wd;
+  wd.threads = 100000;
+  World w(wd);
+  EXPECT_EQ(w.threads(), cores);
+  wd.threads = 0;
+  EXPECT_EQ(World(wd).threads(), cores);
+  wd.threads = 1;
+  EXPECT_EQ(World(wd).threads(), 1);
+  wd.threads = -1;
+  EXPECT_THROW(World{wd}, InputError);
+
+  SceneDef scene;
+  scene.duration = 0.002;
+  scene.bodies.push_back(beam_def(ForceModel::linear));
+  RunOptions opt;
+  opt.write_files = false;
+  opt.threads = 100000;
+  const RunSummary s = run_scene(scene, opt);
+  EXPECT_EQ(s.threads, cores);
+  ASSERT_FALSE(s.notes.empty());
+  EXPECT_THAT(s.notes.back(), HasSubstr(fmt::format("100000 threads asked, {} used", cores)));
 }
 
 // Output intervals far below the step (1e-20 s: below the rounding unit of the time itself)

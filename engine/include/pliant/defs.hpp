@@ -102,7 +102,8 @@ struct TimeStepDef {
 struct WorldDef {
   Vec3d gravity{0, 0, -9.81};   // m/s^2
   Precision precision = Precision::float64;
-  int threads = 0;              // 0: all cores the process may use
+  int threads = 0;              // 0: all cores the process may use; more than those is clamped to them
+                                //   (World::threads() reports the number used)
   TimeStepDef time_step;
 };
 

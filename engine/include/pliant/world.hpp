@@ -81,7 +81,7 @@ class World {
   double max_stiffness_ratio() const;
   Vec3d gravity() const;           // m/s^2
   Precision precision() const;
-  int threads() const;
+  int threads() const;  // used: WorldDef::threads, clamped to the cores the process may use (0: all of them)
 
   std::size_t body_count() const;
   BodyId find_body(std::string_view name) const;  // -1 if there is none

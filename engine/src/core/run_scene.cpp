@@ -134,6 +134,10 @@ RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   RunSummary s;
   s.precision = to_string(world.precision());
   s.threads = world.threads();
+  const int asked = options.threads.value_or(scene.world.threads);
+  if (asked > world.threads())
+    s.notes.push_back(fmt::format("threads: {} threads asked, {} used (the cores this process may use)", asked,
+                                  world.threads()));
   s.dt = world.dt();
   s.stable_dt = world.stable_dt();
   s.substeps = world.substeps();
