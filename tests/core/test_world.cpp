@@ -200,6 +200,52 @@ TEST(StableStep, SubsteppingSplitsAnExplicitStep) {
   EXPECT_NEAR(w.time(), 2.5 * probe.stable_dt(), 1e-15);
 }
 
+// An explicit step that needs more sub-steps than an int counts (dt = 1e6 s on a step bound of
+// 2e-4 s) overflowed to a negative count: every step() advanced the time by dt and simulated
+// nothing, status ok. It is refused, saying how many sub-steps it would need.
+TEST(StableStep, SubsteppingBeyondWhatCanBeCountedIsRefused) {
+  WorldDef wd;
+  wd.time_step.dt = 1e6;
+  wd.time_step.substep = true;
+  World w(wd);
+  try {
+    w.add_body(beam_def(ForceModel::corotational));
+    FAIL() << "accepted, with " << w.substeps() << " sub-steps";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("time_step.dt = 1e+06 s"));
+    EXPECT_THAT(e.what(), HasSubstr("sub-steps"));
+  }
+  EXPECT_EQ(w.body_count(), 0u);
+  EXPECT_EQ(w.dt(), 0.0);  // as a new world
+  EXPECT_EQ(w.stable_dt(), 0.0);
+}
+
+// A body refused because of the step leaves the world as it was: the step, its bound and the
+// sub-steps of the bodies already there (they were left at the refused body's bound and 1 sub-step).
+TEST(StableStep, ARefusedBodyLeavesTheStepAsItWas) {
+  World probe;
+  probe.add_body(beam_def(ForceModel::corotational));
+  WorldDef wd;
+  wd.time_step.dt = 2.5 * probe.stable_dt();
+  wd.time_step.substep = true;
+  World w(wd);
+  w.add_body(beam_def(ForceModel::corotational));
+  ASSERT_EQ(w.substeps(), 3);
+  BodyDef tiny = beam_def(ForceModel::corotational);  // 1 um cells of a stiff material: a 1e-11 s bound
+  tiny.name = "tiny";
+  tiny.mesh.min = {0, 0, 0};
+  tiny.mesh.max = {4e-5, 1e-5, 1e-5};
+  tiny.fixed.clear();
+  tiny.prescribed.clear();
+  tiny.loads.clear();
+  tiny.material.young = 1e12;
+  EXPECT_THROW(w.add_body(tiny), InputError);
+  EXPECT_EQ(w.body_count(), 1u);
+  EXPECT_EQ(w.substeps(), 3);
+  EXPECT_EQ(w.stable_dt(), probe.stable_dt());
+  EXPECT_EQ(w.dt(), 2.5 * probe.stable_dt());
+}
+
 TEST(StableStep, ExplicitStepBelowTheBoundIsUsed) {
   World probe;
   probe.add_body(beam_def(ForceModel::corotational));

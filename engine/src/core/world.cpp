@@ -5,6 +5,7 @@
 
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <fmt/format.h>
 #include <variant>
 
@@ -59,6 +60,10 @@ struct World::Impl {
     });
     const TimeStepDef& ts = def.time_step;
     base_substeps = substeps = 1;
+    if (stable_dt == 1e300) {  // no body (the first one was refused): as a new world
+      stable_dt = dt = 0;
+      return;
+    }
     if (!ts.dt) {
       dt = stable_dt;
       return;
@@ -72,7 +77,15 @@ struct World::Impl {
           "time_step.dt = {:.6g} s is above the stable bound {:.6g} s (Courant number {}); use \"auto\", a dt at or "
           "below the bound, or \"substep\": true to split each step into stable sub-steps",
           *ts.dt, stable_dt, ts.courant));
-    base_substeps = substeps = int(std::ceil(*ts.dt / stable_dt));
+    // Sub-steps per step are an int: a count beyond it overflowed to a negative one, and every
+    // step then advanced the time without simulating anything.
+    const double need = std::ceil(*ts.dt / stable_dt);
+    if (!(need <= double(std::numeric_limits<int>::max())))
+      throw InputError(fmt::format(
+          "time_step.dt = {:.6g} s would take {:.3g} sub-steps of the stable bound {:.6g} s (Courant number {}); at "
+          "most {} per step: use a smaller dt",
+          *ts.dt, need, stable_dt, ts.courant, std::numeric_limits<int>::max()));
+    base_substeps = substeps = int(need);
     dt = *ts.dt;
   }
 
@@ -258,7 +271,11 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
   try {
     impl_->choose_step();
   } catch (...) {
+    // Refused for its step: the world goes back to the step of the bodies it had (choose_step
+    // succeeded for them, so it does again; without it the bound and sub-steps stayed the
+    // refused body's).
     impl_->visit([](auto& s) { s.bodies.pop_back(); });
+    impl_->choose_step();
     throw;
   }
   impl_->load_reports.push_back(report);
