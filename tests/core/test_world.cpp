@@ -8,6 +8,7 @@
 #include <fstream>
 #include <unistd.h>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include <fmt/format.h>
@@ -403,6 +404,36 @@ TEST(PrescribedMotion, HostCanDriveARegion) {
     }
   EXPECT_TRUE(found);
   EXPECT_THROW(w.set_motion_offset(0, 3, {0, 0, 0}), InputError);
+}
+
+// A host fills BodyDef in code, where nothing stops a NaN or an infinity (scene files cannot hold
+// them). A NaN keyframe time made offset_at index before the first keyframe, a non-finite offset
+// or load made the first step report a divergence (exit 3) for what is bad input, and an infinite
+// viscosity made the step NaN. Each is refused at add_body, naming the field.
+TEST(Api, NonFiniteNumbersFromAHostAreRefusedNamingTheField) {
+  const double nan = std::nan(""), inf = INFINITY;
+  struct Case {
+    const char* field;
+    std::function<void(BodyDef&)> spoil;
+  };
+  const Case cases[] = {
+      {"prescribed[0].keyframes[1].time", [&](BodyDef& b) { b.prescribed[0].keyframes[1].time = nan; }},
+      {"prescribed[0].keyframes[0].offset", [&](BodyDef& b) { b.prescribed[0].keyframes[0].offset[2] = inf; }},
+      {"loads[0].force", [&](BodyDef& b) { b.loads[0].total_force[1] = nan; }},
+      {"material.damping.bulk_viscosity", [&](BodyDef& b) { b.material.damping.bulk_viscosity = inf; }},
+      {"material.damping.shear_viscosity", [&](BodyDef& b) { b.material.damping.shear_viscosity = inf; }},
+  };
+  for (const Case& c : cases) {
+    BodyDef b = beam_def(ForceModel::corotational);
+    c.spoil(b);
+    World w;
+    try {
+      w.add_body(b);
+      ADD_FAILURE() << c.field << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(c.field));
+    }
+  }
 }
 
 TEST(Regions, ARegionThatSelectsNoNodeIsAnError) {

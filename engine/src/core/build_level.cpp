@@ -77,10 +77,10 @@ void check_material(const MaterialDef& m, const std::string& body) {
   if (!(m.damping.mass >= 0) || !std::isfinite(m.damping.mass)) bad("damping.mass", m.damping.mass, ">= 0 (1/s)");
   if (!(m.damping.stiffness >= 0) || !std::isfinite(m.damping.stiffness))
     bad("damping.stiffness", m.damping.stiffness, ">= 0 (s)");
-  if (m.damping.bulk_viscosity && !(*m.damping.bulk_viscosity >= 0))
-    bad("damping.bulk_viscosity", *m.damping.bulk_viscosity, ">= 0 (Pa s)");
-  if (m.damping.shear_viscosity && !(*m.damping.shear_viscosity >= 0))
-    bad("damping.shear_viscosity", *m.damping.shear_viscosity, ">= 0 (Pa s)");
+  if (m.damping.bulk_viscosity && (!(*m.damping.bulk_viscosity >= 0) || !std::isfinite(*m.damping.bulk_viscosity)))
+    bad("damping.bulk_viscosity", *m.damping.bulk_viscosity, "a finite number >= 0 (Pa s)");
+  if (m.damping.shear_viscosity && (!(*m.damping.shear_viscosity >= 0) || !std::isfinite(*m.damping.shear_viscosity)))
+    bad("damping.shear_viscosity", *m.damping.shear_viscosity, "a finite number >= 0 (Pa s)");
 }
 
 // The springs model has no bulk or shear: its dashpots are beta (damping.stiffness) times each
@@ -201,6 +201,18 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
     MotionState m;
     m.nodes = select_nodes(mesh, def.prescribed[i].region, fmt::format("prescribed[{}]", i), def.name);
     m.keyframes = def.prescribed[i].keyframes;
+    // A host's BodyDef may hold what a scene file cannot (NaN, infinities): a NaN time broke the
+    // search of offset_at, a non-finite offset looked like a divergence at the first step.
+    for (std::size_t k = 0; k < m.keyframes.size(); ++k) {
+      const KeyframeDef& kf = m.keyframes[k];
+      if (!std::isfinite(kf.time))
+        throw InputError(fmt::format("body '{}': prescribed[{}].keyframes[{}].time must be a finite number (s), got {}",
+                                     def.name, i, k, kf.time));
+      if (!std::isfinite(kf.offset[0]) || !std::isfinite(kf.offset[1]) || !std::isfinite(kf.offset[2]))
+        throw InputError(fmt::format("body '{}': prescribed[{}].keyframes[{}].offset must be 3 finite numbers (m), got "
+                                     "[{}, {}, {}]",
+                                     def.name, i, k, kf.offset[0], kf.offset[1], kf.offset[2]));
+    }
     for (std::size_t k = 1; k < m.keyframes.size(); ++k)
       if (m.keyframes[k].time < m.keyframes[k - 1].time)
         throw InputError(fmt::format("body '{}': prescribed[{}].keyframes must be sorted by time", def.name, i));
@@ -213,6 +225,10 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   if (!def.loads.empty()) {
     for (auto& e : L.external) e.assign(nn, T(0));
     for (std::size_t i = 0; i < def.loads.size(); ++i) {
+      const Vec3d& force = def.loads[i].total_force;
+      if (!std::isfinite(force[0]) || !std::isfinite(force[1]) || !std::isfinite(force[2]))
+        throw InputError(fmt::format("body '{}': loads[{}].force must be 3 finite numbers (N), got [{}, {}, {}]", def.name,
+                                     i, force[0], force[1], force[2]));
       const auto nodes = select_nodes(mesh, def.loads[i].region, fmt::format("loads[{}]", i), def.name);
       for (auto n : nodes)
         for (int k = 0; k < 3; ++k) L.external[k][n] += T(def.loads[i].total_force[k] / double(nodes.size()));
