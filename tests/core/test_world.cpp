@@ -436,6 +436,38 @@ TEST(Api, NonFiniteNumbersFromAHostAreRefusedNamingTheField) {
   }
 }
 
+// Numbers that are fine in double but do not fit a float world (moduli beyond 3.4e38 Pa, masses
+// or volumes below float's range) ran and "diverged" at step 0 (exit 3) for what is bad input for
+// that precision. They are refused at add_body, naming the quantity and the precision.
+TEST(Api, NumbersBeyondTheFloatRangeAreRefusedInAFloatWorld) {
+  struct Case {
+    const char* what;
+    std::function<void(BodyDef&)> set;
+  };
+  const Case cases[] = {
+      {"material.young", [](BodyDef& b) { b.material.young = 1e39; }},
+      {"material.density", [](BodyDef& b) { b.material.density = 1e-50; }},
+      {"rest volume", [](BodyDef& b) { b.mesh.max = {4e-14, 1e-14, 1e-14}; b.fixed.clear(); b.prescribed.clear(); b.loads.clear(); }},
+  };
+  for (const Case& c : cases) {
+    BodyDef b = beam_def(ForceModel::corotational);
+    c.set(b);
+    WorldDef wd;
+    wd.precision = Precision::float32;
+    World f(wd);
+    try {
+      f.add_body(b);
+      ADD_FAILURE() << c.what << " accepted in float";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(c.what));
+      EXPECT_THAT(e.what(), HasSubstr("float"));
+    }
+    wd.precision = Precision::float64;
+    World d(wd);
+    EXPECT_NO_THROW(d.add_body(b)) << c.what << " in double";
+  }
+}
+
 TEST(Regions, ARegionThatSelectsNoNodeIsAnError) {
   World w;
   BodyDef b = beam_def(ForceModel::corotational);

@@ -4,6 +4,7 @@
 // (stable_step.cpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
@@ -95,6 +96,36 @@ void check_model_damping(const MaterialDef& m, ForceModel model, const std::stri
           "shear viscosity: its dashpots are damping.stiffness times each spring's stiffness); remove it and use "
           "damping.stiffness, or choose another model",
           body, field));
+}
+
+// What a float world cannot hold: numbers valid in double whose float is infinite, zero or
+// subnormal. They ran and "diverged" at step 0 (exit 3), for input that does not fit the chosen
+// precision. Checked on the level as built (its own T values), so also right for double.
+template <class T>
+void check_precision_range(const Level<T>& L, const BodyDef& def, const std::vector<double>& mass) {
+  const char* precision = sizeof(T) == 4 ? "float" : "double";
+  constexpr double lo = double(std::numeric_limits<T>::min()), hi = double(std::numeric_limits<T>::max());
+  auto refuse = [&](const std::string& what) {
+    throw InputError(fmt::format("body '{}': {}, outside the range of {} precision ({:.2g} .. {:.2g}){}", def.name, what,
+                                 precision, lo, hi, sizeof(T) == 4 ? ": use \"precision\": \"double\"" : ""));
+  };
+  const MaterialDef& m = def.material;
+  const bool moduli = std::isfinite(double(L.lambda)) && std::isfinite(double(L.mu)) && double(L.mu) >= lo &&
+                      std::isfinite(double(L.young)) && double(L.young) >= lo;
+  if (!moduli) refuse(fmt::format("material.young = {:g} Pa gives Lame coefficients {:g} and {:g} Pa", m.young,
+                                  m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson)), m.young / (2 * (1 + m.poisson))));
+  if (!std::isfinite(double(L.bulk_viscosity)) || !std::isfinite(double(L.shear_viscosity)))
+    refuse(fmt::format("material.damping viscosities {:g} and {:g} Pa s", double(L.bulk_viscosity), double(L.shear_viscosity)));
+  for (std::size_t t = 0; t < L.tet_count; ++t) {
+    if (!(double(L.volume[t]) >= lo))
+      refuse(fmt::format("the rest volume of tet {} is {:g} m^3 (scale the mesh to metres?)", t, double(L.volume[t])));
+    for (const auto& g : L.grad)
+      if (!std::isfinite(double(g[t])))
+        refuse(fmt::format("the rest shape gradients of tet {} are beyond {:g} 1/m (scale the mesh to metres?)", t, hi));
+  }
+  for (std::size_t n = 0; n < L.node_count; ++n)
+    if (!(double(L.mass[n]) >= lo) || !std::isfinite(double(L.inv_mass[n])))
+      refuse(fmt::format("material.density = {:g} kg/m^3 gives node {} a mass of {:g} kg", m.density, n, mass[n]));
 }
 
 struct Lame {
@@ -251,6 +282,7 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   L.mass_damping = T(d.mass);
   L.young = T(def.material.young);
   L.stiffness_damping = T(d.stiffness);
+  check_precision_range(L, def, mass);
   L.min_altitude = h_min;
   // The step: for the higher of the geometric frequency 2 c_p / h_min and the measured one
   // (stable_step.cpp; a Ritz value approaches from below, hence the margin).
