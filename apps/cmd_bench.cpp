@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "pliant/error.hpp"
+#include "pliant/scheduler/executor.hpp"
 
 #ifdef PLIANT_HAS_BENCH_SUITE
 #include <nlohmann/json.hpp>
@@ -78,7 +79,10 @@ int command_bench(const Options& o) {
   so.quick = o.quick;
   if (o.threads) {
     if (*o.threads < 1) throw InputError(fmt::format("--threads must be at least 1, got {}", *o.threads));
-    so.threads = {*o.threads};
+    so.threads = {std::min(*o.threads, Executor::default_threads())};
+    if (so.threads[0] < *o.threads)  // the records must say what ran
+      fmt::print(stderr, "pliant bench: note: --threads {}: this process may use {} cores, measuring on {} threads\n",
+                 *o.threads, so.threads[0], so.threads[0]);
   }
   if (!(o.max_wait >= 0)) throw InputError(fmt::format("--max-wait must be >= 0 (s), got {}", o.max_wait));
   so.max_wait_s = o.max_wait;

@@ -47,6 +47,7 @@
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/meshing.hpp"
 #include "surface_soup.hpp"
 
@@ -281,9 +282,7 @@ TetMesh mesh_inside(const SurfaceMesh& sm, double cell_size, const std::string& 
 
 TetMesh mesh_surface_file(const std::filesystem::path& surface, double cell_size, bool repair) {
   const std::string file = surface.string();
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(surface, ec))
-    throw InputError(fmt::format("surface file '{}': no such file", file));
+  check_input_file(surface, "surface file");  // regular files only: CGAL's readers would hang on a FIFO
   if (!std::isfinite(cell_size) || cell_size <= 0.0) check_cell_size(cell_size, 0.0, "'" + file + "'");
   SurfaceMesh sm = repair ? repaired_closed_surface(surface) : read_closed_surface_or_explain(file);
   return mesh_inside(sm, cell_size, "'" + file + "'");

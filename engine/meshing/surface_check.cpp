@@ -36,6 +36,7 @@
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/meshing.hpp"
 #include "surface_soup.hpp"
 
@@ -285,9 +286,8 @@ namespace meshing_detail {
 
 SurfaceSoup read_surface_soup(const std::string& file) {
   const auto fail = [&](const std::string& what) { return InputError(fmt::format("surface file '{}': {}", file, what)); };
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(file, ec)) throw fail("no such file");
-  if (std::filesystem::file_size(file, ec) == 0 && !ec) throw fail("empty file");
+  // Regular files only (a FIFO would block CGAL's reader): says what the path is instead.
+  if (check_input_file(file, "surface file") == 0) throw fail("empty file");
   std::string ext = std::filesystem::path(file).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext != ".obj" && ext != ".off" && ext != ".stl" && ext != ".ply")

@@ -66,12 +66,11 @@ inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t,
 
 // extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing
 // at the iteration where the scalar loop breaks; the loop ends when every lane of every batch
-// has stopped (or after the same maximum number of iterations). Lanes that reach a stationary
-// point with an indefinite Hessian take the scalar escape (escape_rotation) one lane at a time,
-// with the lane's own values, so that they too do exactly what the scalar loop does. K > 1
-// interleaves independent chains through the iteration's long dependency chain, but on the
-// machine measured (docs/performance.md) register spills made K = 2 slower than K = 1, which the
-// pass uses.
+// has stopped (or after the same maximum number of iterations). Lanes whose Newton Hessian is not
+// positive definite take the scalar escape (escape_rotation) one lane at a time, with the lane's
+// own values, so that they too do exactly what the scalar loop does. K > 1 interleaves
+// independent chains through the iteration's long dependency chain, but on the machine measured
+// (docs/performance.md) register spills made K = 2 slower than K = 1, which the pass uses.
 template <class T, int K>
 __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<typename simd::Pack<T>::V> A[K],
                                                                     typename simd::Pack<T>::V q[K][4],
@@ -87,57 +86,42 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
     active[b] = ~M{};
   }
   for (int it = 0; it < kMaxIterations; ++it) {
-    V g[K][3], w[K][3], tr[K];
-    M newton[K];
-    M fallback = M{};
+    V w[K][3];
+    M stepping[K], escaping[K];
+    M any_escaping = M{};
     for (int b = 0; b < K; ++b) {
       const Mat3<V> Mt = mul_tn(R[b], A[b]);
-      g[b][0] = Mt.m[2][1] - Mt.m[1][2];
-      g[b][1] = Mt.m[0][2] - Mt.m[2][0];
-      g[b][2] = Mt.m[1][0] - Mt.m[0][1];
-      tr[b] = trace(Mt);
-      const V h00 = tr[b] - Mt.m[0][0], h11 = tr[b] - Mt.m[1][1], h22 = tr[b] - Mt.m[2][2];
+      const V g[3] = {Mt.m[2][1] - Mt.m[1][2], Mt.m[0][2] - Mt.m[2][0], Mt.m[1][0] - Mt.m[0][1]};
+      const V tr = trace(Mt);
+      const V h00 = tr - Mt.m[0][0], h11 = tr - Mt.m[1][1], h22 = tr - Mt.m[2][2];
       const V h01 = T(-0.5) * (Mt.m[0][1] + Mt.m[1][0]);
       const V h02 = T(-0.5) * (Mt.m[0][2] + Mt.m[2][0]);
       const V h12 = T(-0.5) * (Mt.m[1][2] + Mt.m[2][1]);
       const V c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
       const V det = h00 * c00 + h01 * c01 + h02 * c02;
-      const V scale = tr[b] * tr[b] * tr[b];
-      newton[b] = (h00 > 0) & (h00 * h11 - h01 * h01 > 0) & (det > T(1e-6) * scale);
+      const V scale = tr * tr * tr;
+      // tr > 0 as in the scalar code: the scale must be positive for the test to mean "positive definite".
+      const M newton = (tr > 0) & (h00 > 0) & (h00 * h11 - h01 * h01 > 0) & (det > T(1e-6) * scale);
       const V c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
       const V inv = T(1) / det;
-      w[b][0] = (c00 * g[b][0] + c01 * g[b][1] + c02 * g[b][2]) * inv;
-      w[b][1] = (c01 * g[b][0] + c11 * g[b][1] + c12 * g[b][2]) * inv;
-      w[b][2] = (c02 * g[b][0] + c12 * g[b][1] + c22 * g[b][2]) * inv;
-      fallback |= ~newton[b] & active[b];
-    }
-    // The gradient step only where Newton's does not apply (rare: inverted or flat tets).
-    if (simd::any(fallback)) {
-      for (int b = 0; b < K; ++b) {
-        const V s = T(1) / (simd::abs(tr[b]) + std::numeric_limits<T>::min() * T(1e6));
-        for (int k = 0; k < 3; ++k) w[b][k] = newton[b] ? w[b][k] : g[b][k] * s;
-      }
-    }
-    // Lanes whose step is below the tolerance (or NaN) stop here, as the scalar break, unless
-    // they sit at a stationary point with an indefinite Hessian (the escape below).
-    M stepping[K], stalled[K];
-    M any_stalled = M{};
-    for (int b = 0; b < K; ++b) {
+      w[b][0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv;
+      w[b][1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) * inv;
+      w[b][2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) * inv;
       const V angle2 = w[b][0] * w[b][0] + w[b][1] * w[b][1] + w[b][2] * w[b][2];
-      const M moving = angle2 > tol * tol;
-      stepping[b] = active[b] & moving;
-      stalled[b] = active[b] & ~moving & ~newton[b];
+      // Newton lanes whose step is below the tolerance (or NaN) stop here, as the scalar break.
+      stepping[b] = active[b] & newton & (angle2 > tol * tol);
+      escaping[b] = active[b] & ~newton;
       active[b] = stepping[b];
-      any_stalled |= stalled[b];
+      any_escaping |= escaping[b];
     }
-    // Escapes (rare: a saddle or minimum of tr(R^T A), e.g. a half turn from the warm start), one
-    // lane at a time, on M recomputed (the same bits) rather than kept live through the loop.
-    if (simd::any(any_stalled)) {
+    // Escapes (rare: a warm start far from the answer, an inverted or flat tet), one lane at a
+    // time, on M recomputed (the same bits) rather than kept live through the loop.
+    if (simd::any(any_escaping)) {
       for (int b = 0; b < K; ++b) {
-        if (!simd::any(stalled[b])) continue;
+        if (!simd::any(escaping[b])) continue;
         const Mat3<V> Mt = mul_tn(R[b], A[b]);
         for (int l = 0; l < W; ++l) {
-          if (!stalled[b][l]) continue;
+          if (!escaping[b][l]) continue;
           Mat3<T> m;
           for (int i = 0; i < 3; ++i)
             for (int j = 0; j < 3; ++j) m.m[i][j] = Mt.m[i][j][l];

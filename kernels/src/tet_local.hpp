@@ -155,7 +155,7 @@ inline scalar_t<T> rotation_tolerance() {
   return std::numeric_limits<S>::epsilon() < S(1e-10) ? S(1e-12) : S(4e-6);
 }
 
-// The escape from a stationary point of tr(R^T A) that is not its maximum (extract_rotation):
+// The escape from an iterate where Newton's Hessian is not positive definite (extract_rotation):
 // the body-frame rotation p that takes the current rotation R (with M = R^T A) to the *global*
 // maximiser of tr(R^T A) over all rotations. tr(R(p)^T M) is the quadratic form p^T N p of Horn's symmetric 4x4 matrix N (1987,
 // "Closed-form solution of absolute orientation using unit quaternions"), so the maximiser is the
@@ -167,10 +167,11 @@ inline scalar_t<T> rotation_tolerance() {
 // rounding) or p would move it by less than `tol` rad, or on non-finite input: the iteration
 // has then converged.
 // Scalar only: the batched iteration calls it lane by lane (tet_batch.hpp), so a lane does the
-// same arithmetic as the scalar code. It is the rare path: a warm start 180 deg away from the
-// answer (a body turned over), where the gradient of tr(R^T A) vanishes and Newton's Hessian is
-// indefinite (no local method leaves such a saddle), or an exactly flat or mirrored tet (a
-// degenerate maximum, where it returns false). For det A < 0 the global maximiser is the
+// same arithmetic as the scalar code. It is the rare path: a warm start more than 90 deg away
+// from the answer (a body turned over: at 180 deg the gradient of tr(R^T A) vanishes and Newton's
+// Hessian is indefinite, a saddle no local method leaves), an inverted tet whose stretches changed
+// order since the last step, or a flat or mirrored tet (a degenerate maximum, where it returns
+// false). For det A < 0 the global maximiser is the
 // rotation of the SVD with the smallest singular value negated (invertible FEM).
 template <class S>
 inline bool max_trace_escape(const Mat3<S>& M, S tol, S p[4]) {
@@ -273,19 +274,20 @@ inline bool escape_rotation(const Mat3<S>& M, S q[4], S tol) {
 // R <- R exp([w]x) changes tr(R^T A) by g.w - w^T H w / 2 + O(|w|^3), where
 // g = (M32 - M23, M13 - M31, M21 - M12) and H = tr(M) I - sym(M); Newton's step is w = H^-1 g.
 // Near the maximiser H is positive definite (its eigenvalues are sums of two signed singular
-// values) and the iteration converges quadratically: 1-2 iterations when warm-started. Where H
-// is not positive definite (inverted or flattened elements) the step falls back to the
-// gradient step w = g / |tr M| of Müller et al. 2016 ("A robust method to extract the rotational
-// part of deformations"), which follows the element continuously from the previous step.
-// Neither step moves at a stationary point, and with H indefinite a stationary point need not be
-// the maximiser: a start 180 deg away from the answer (a body turned over) is a saddle or a
-// minimum of tr(R^T A), where g = 0 exactly and a local method stays forever, taking a rigid
-// rotation for a huge strain. So when the step vanishes while H is not positive definite, the
-// iterate jumps to the global maximiser if that is better (max_trace_escape: the top eigenvector
-// of Horn's quaternion matrix), and the iteration goes on from there; at a true (degenerate)
-// maximum, e.g. a tet flattened or mirrored exactly, it stays. The quaternion update (1, w/2)
-// normalised needs no sin/cos; its angle error only slows convergence, it does not move the
-// fixed point.
+// values, s1 + s2, s1 + s3, s2 + s3 with s3 negated for det A < 0) and the iteration converges
+// quadratically: 1-2 iterations when warm-started. Where H is not positive definite the iterate
+// is not near the maximiser: a warm start more than 90 deg away (a body turned over, whose
+// start is a saddle or a minimum of tr(R^T A) with g = 0 exactly, where a local method stays
+// forever and takes a rigid rotation for a huge strain), an inverted element whose signed
+// stretches changed order, or a degenerate (flat, mirrored) element. There the iterate jumps to
+// the global maximiser (max_trace_escape: the top eigenvector of Horn's quaternion matrix, the
+// nearest one when it is not unique) and Newton goes on from there; at a (degenerate) maximum
+// already, it stays. tr(R^T A) has no other local maximum, so this is the rotation Newton would
+// reach from a good start; the gradient step of Müller et al. 2016 used here before went round
+// in circles for 64 iterations on inverted elements started far from the answer, where |tr M|
+// is small and the step w = g / |tr M| huge (tests/kernels/test_rotation_reference.cpp).
+// The quaternion update (1, w/2) normalised needs no sin/cos; its angle error only slows
+// convergence, it does not move the fixed point.
 template <class T>
 inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
   constexpr int kMaxIterations = 64;
@@ -302,34 +304,31 @@ inline Mat3<T> extract_rotation(const Mat3<T>& A, T q[4]) {
     const T h12 = T(-0.5) * (M.m[1][2] + M.m[2][1]);
     const T c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
     const T det = h00 * c00 + h01 * c01 + h02 * c02;
-    T w[3];
-    // Positive definite (Sylvester): h00 > 0, leading 2x2 minor > 0, det > 0 (scaled test).
+    // Positive definite (Sylvester): h00 > 0, leading 2x2 minor > 0, det > 0, scaled: det above
+    // 1e-6 tr^3. That needs tr > 0, which positive definiteness implies anyway (tr(H) = 2 tr(M)):
+    // with tr < 0 the scale is negative and an indefinite H (det < 0) passed, so that a half turn
+    // with a small stretch along its axis stopped at the saddle (test_rotation_reference.cpp).
     const T scale = tr * tr * tr;
-    const bool newton = h00 > 0 && h00 * h11 - h01 * h01 > 0 && det > T(1e-6) * scale;
-    if (newton) {
-      const T c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
-      const T inv = T(1) / det;
-      w[0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv;
-      w[1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) * inv;
-      w[2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) * inv;
-    } else {
-      const T s = T(1) / (std::fabs(tr) + std::numeric_limits<T>::min() * T(1e6));
-      w[0] = g[0] * s; w[1] = g[1] * s; w[2] = g[2] * s;
-    }
-    const T angle2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
-    if (!(angle2 > tol * tol)) {  // stationary (also NaN)
-      if (!newton && escape_rotation(M, q, tol)) {  // a saddle or minimum: leave it
+    const bool newton = tr > 0 && h00 > 0 && h00 * h11 - h01 * h01 > 0 && det > T(1e-6) * scale;
+    if (!newton) {  // far from the maximiser or at a degenerate one (also NaN): jump to it
+      if (escape_rotation(M, q, tol)) {
         R = quat_to_matrix(q);
         continue;
       }
-      break;  // converged
+      break;  // a maximiser already (within rounding)
     }
+    const T c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
+    const T inv = T(1) / det;
+    const T w[3] = {(c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv, (c01 * g[0] + c11 * g[1] + c12 * g[2]) * inv,
+                    (c02 * g[0] + c12 * g[1] + c22 * g[2]) * inv};
+    const T angle2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2];
+    if (!(angle2 > tol * tol)) break;  // converged (also NaN)
     // q <- q * (1, w/2), normalised (body-frame increment).
     const T d[4] = {T(1), T(0.5) * w[0], T(0.5) * w[1], T(0.5) * w[2]};
     T n[4];
     quat_mul(q, d, n);
-    const T inv = T(1) / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-    for (int k = 0; k < 4; ++k) q[k] = n[k] * inv;
+    const T qinv = T(1) / std::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
+    for (int k = 0; k < 4; ++k) q[k] = n[k] * qinv;
     R = quat_to_matrix(q);
   }
   return R;

@@ -159,6 +159,12 @@ Scene random_scene(std::uint64_t seed, const StressOptions& o) {
   if (damping == 3) {
     mat.damping.bulk_viscosity = r.log_uniform(1e-2, 10);
     mat.damping.shear_viscosity = r.log_uniform(1e-2, 10);
+    if (s.body.model == ForceModel::springs) {  // springs refuse viscosities: the same shear damping as beta
+      const double mu = mat.young / (2 * (1 + mat.poisson));
+      mat.damping.stiffness = *mat.damping.shear_viscosity / mu;
+      mat.damping.bulk_viscosity.reset();
+      mat.damping.shear_viscosity.reset();
+    }
   }
   const Bounds b = bounds(s.mesh);
   const double ext = b.hi[0] - b.lo[0];

@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/perf/study.hpp"
 
 namespace pliant::study {
@@ -428,11 +429,7 @@ ReferenceFile parse_reference(std::string_view json_text, const std::string& sou
 }
 
 ReferenceFile load_reference_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot open reference file", path.string()));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return parse_reference(ss.str(), path.string());
+  return parse_reference(read_input_file(path, "reference file"), path.string());
 }
 
 std::filesystem::path reference_path_for(const std::filesystem::path& scene) {

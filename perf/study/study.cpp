@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/scene.hpp"
 #include "pliant/perf/study.hpp"
 
@@ -20,13 +21,7 @@ namespace pliant::study {
 namespace fs = std::filesystem;
 namespace {
 
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw InputError(fmt::format("{}: cannot open scene file", path.string()));
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
+std::string read_text(const fs::path& path) { return read_input_file(path, "scene file"); }
 
 std::optional<double> as_number(const std::string& s) {
   if (s.empty()) return std::nullopt;

@@ -50,6 +50,17 @@ struct FrameRecorder::Impl {
   int expected = 0;           // frames the run should give
   std::vector<int> planned;   // frame indices planned for the sheet
 
+  // Plans the sheet for the frames a run of `duration` gives with captures every `every` s, at
+  // most one per step of `step` s (0: unknown): the runner checks once per step, so an interval
+  // below the step gives a frame per step. Clamped: past 1e9 the count only spreads the planned
+  // frames (1e-12 s over 0.02 s overflowed int and planned the sheet for frame INT_MIN alone).
+  void plan(double step) {
+    const double interval = std::max(every, step * (1 - 1e-9));
+    const double n = std::floor(duration / interval + 1e-6) + 1;
+    expected = n < 1e9 ? int(n) : 1000000000;
+    planned = sheet_selection(expected);
+  }
+
   CaptureCache cache;
   struct Pending {
     Frame frame;
@@ -299,8 +310,7 @@ FrameRecorder::FrameRecorder(const SceneDef& scene, RecorderOptions options, dou
     m.every = sheet_every;
   }
   if (m.every > 0) {
-    m.expected = int(std::floor(duration / m.every + 1e-6)) + 1;
-    m.planned = m.sheet_selection(m.expected);
+    m.plan(0);  // again at the first capture, when the step is known
   }
 }
 
@@ -314,6 +324,7 @@ double FrameRecorder::frame_every() const { return impl_->every * (1 - 1e-9); }
 void FrameRecorder::capture(const World& world) {
   Impl& m = *impl_;
   if (m.every <= 0) return;
+  if (m.captured == 0) m.plan(world.dt());
   Frame f = raster::capture(world, m.opt.field, &m.cache);
   m.pending_bytes += f.bytes();
   m.pending.push_back({std::move(f), m.captured++});

@@ -22,6 +22,7 @@
 #include <vector>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/mesh_io.hpp"
 #include "pliant/raster/render.hpp"
 
@@ -29,12 +30,14 @@ namespace pliant::raster {
 namespace {
 namespace fs = std::filesystem;
 
+// The file's text, or "" if it cannot be read (a .pvd that is not a regular file is skipped, not
+// waited on: input_file.hpp).
 std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) return {};
-  std::ostringstream s;
-  s << in.rdbuf();
-  return std::move(s).str();
+  try {
+    return read_input_file(path, "file");
+  } catch (const InputError&) {
+    return {};
+  }
 }
 
 // A start tag: its name, attributes and the text up to its end tag (empty when self-closing).

@@ -21,7 +21,8 @@ struct Executor::Arena {
 int Executor::default_threads() { return std::max(1, tbb::info::default_concurrency()); }
 
 Executor::Executor(int threads) {
-  threads_ = threads <= 0 ? default_threads() : threads;
+  const int cores = default_threads();
+  threads_ = threads <= 0 ? cores : std::min(threads, cores);
   if (threads_ > 1) arena_ = std::make_unique<Arena>(threads_);
 }
 

@@ -24,6 +24,14 @@ for key in steps simulated_time wall_time_s nodes tets model precision threads d
 done
 check run_overrides 0 "float" -- "$pliant" run "$work/good.json" --out "$work/out2" --threads 1 --precision float --duration 0.002
 check run_quiet_silent 0 "" -- "$pliant" run "$work/good.json" --out "$work/out3" --quiet
+# More threads than cores: clamped to the cores, and said (it was accepted and reported as 100000).
+check run_threads_clamped 0 "note: threads: 100000 threads asked, $(nproc) used" -- "$pliant" run "$work/good.json" --out "$work/othr" --threads 100000
+if [ "$(sed -n 's/^  "threads": \([0-9]*\),$/\1/p' "$work/othr/summary.json")" = "$(nproc)" ]; then
+  echo "ok   clamped threads in summary"; passed=$((passed+1)); else echo "FAIL clamped threads in summary"; failed=$((failed+1)); fi
+# A duration whose step count cannot be counted (it ran 0 steps and said ok): refused, exit 2.
+check run_duration_huge 2 "duration 1e\+30 s .*steps" -- "$pliant" run "$work/good.json" --out "$work/o" --duration 1e30
+scene huge "{\"duration\": 1e30, \"bodies\": [{\"name\": \"b\", $box, $fixed}]}"
+check scene_duration_huge 2 "duration 1e\+30 s .*steps" -- "$pliant" run "$work/huge.json" --out "$work/o"
 if [ ! -s "$work/run_quiet_silent.out" ]; then echo "ok   quiet prints nothing"; passed=$((passed+1)); else echo "FAIL quiet printed"; failed=$((failed+1)); fi
 
 scene poisson "{\"bodies\": [{$box, \"material\": {\"poisson\": 0.7}}]}"
@@ -85,10 +93,26 @@ check mesh_convert_needs_input 2 "" -- "$pliant" mesh -o "$work/x.vtu"
 check info_vtu 0 "nodes 81  tets 192" -- "$pliant" info "$work/out4/vtu/b_00000.vtu"
 check info_stable_dt 0 "stable dt" -- "$pliant" info "$work/out4/vtu/b_00000.vtu" --young 1e5
 check info_missing 2 "absent.vtu" -- "$pliant" info "$work/absent.vtu"
+# Only regular files are read: a FIFO named .msh made `info` wait forever, a link to /dev/zero was
+# read until memory ran out. Each command that reads a file the user names, bounded by timeout
+# and a memory limit so that a regression fails instead of hanging.
+mkfifo "$work/fifo.msh" "$work/fifo.json" "$work/fifo.vtu"
+ln -sf /dev/zero "$work/zero.msh"; ln -sf /dev/zero "$work/zero.json"; ln -sf /dev/zero "$work/zero.stl"
+limited() { (ulimit -v 4000000; exec timeout 20 "$@"); }
+check info_fifo 2 "fifo\.msh: is a FIFO \(named pipe\), not a regular file" -- limited "$pliant" info "$work/fifo.msh"
+check info_dev_zero 2 "zero\.msh: is a character device, not a regular file" -- limited "$pliant" info "$work/zero.msh"
+check run_fifo_scene 2 "fifo\.json: is a FIFO" -- limited "$pliant" run "$work/fifo.json" --out "$work/o"
+check run_dev_zero_scene 2 "zero\.json: is a character device" -- limited "$pliant" run "$work/zero.json" --out "$work/o"
+check render_fifo 2 "fifo\.vtu: is a FIFO" -- limited "$pliant" render "$work/fifo.vtu" -o "$work/x.png"
+check render_dev_zero 2 "zero\.json: is a character device" -- limited "$pliant" render "$work/zero.json" -o "$work/x.png"
+check study_fifo_scene 2 "fifo\.json: is a FIFO" -- limited "$pliant" study "$work/fifo.json" --sweep 'bodies[0].model="linear"' --out "$work/o"
+check mesh_dev_zero 2 "zero\.stl: is a character device|built without CGAL" -- limited "$pliant" mesh "$work/zero.stl" --cell-size 0.1 -o "$work/x.vtu"
+scene fifo_mesh "{\"bodies\": [{\"mesh\": {\"file\": \"fifo.msh\"}}]}"
+check scene_fifo_mesh 2 "fifo\.msh: is a FIFO" -- limited "$pliant" run "$work/fifo_mesh.json" --out "$work/o"
 check mesh_convert 0 "81 nodes, 192 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
 # Meshing a closed surface (STL and PLY, written here: a unit cube of 12 triangles) and an implicit
-# shape, when the build has CGAL.
-if "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" >/dev/null 2>&1; then  # a build with CGAL
+# shape, when the build has CGAL (`mesh --help` lists --implicit in every build: ask the mesher).
+if ! "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" 2>&1 | grep -q "without CGAL"; then
   v=("0 0 0" "1 0 0" "1 1 0" "0 1 0" "0 0 1" "1 0 1" "1 1 1" "0 1 1")
   f=("0 2 1" "0 3 2" "4 5 6" "4 6 7" "0 1 5" "0 5 4" "1 2 6" "1 6 5" "2 3 7" "2 7 6" "3 0 4" "3 4 7")
   { echo "solid c"; for t in "${f[@]}"; do set -- $t
@@ -102,6 +126,8 @@ if "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" >
   check mesh_implicit 0 "tets, volume" -- "$pliant" mesh --implicit sphere --cell-size 0.02 -o "$work/sphere.vtu"
   check mesh_bad_cell_size 2 "cell-size" -- "$pliant" mesh "$work/c.stl" --cell-size -1 -o "$work/x.vtu"
   check info_meshed 0 "dihedral" -- "$pliant" info "$work/c_stl.vtu"
+else  # a build without CGAL says so, exit 2
+  check mesh_without_cgal 2 "built without CGAL" -- "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/x.vtu"
 fi
 
 # study: the tables and the plots, their paths printed. test_study_plots checks the pixels; here,

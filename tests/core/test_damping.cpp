@@ -108,6 +108,27 @@ TEST(RayleighDamping, BetaRunsExactlyAsTheEqualExplicitViscosities) {
   }
 }
 
+// The springs model has no bulk or shear: its dashpots are beta times each spring's stiffness.
+// Viscosities given for it were silently ignored (the same trajectory with and without); now
+// they are refused, naming the field and saying what springs use instead.
+TEST(RayleighDamping, SpringsRefuseBulkAndShearViscosityNamingTheField) {
+  for (const char* field : {"bulk_viscosity", "shear_viscosity"}) {
+    World w;
+    try {
+      w.add_body(beam_scene("springs", std::string("{\"") + field + "\": 50}").bodies[0]);
+      ADD_FAILURE() << field << " accepted for springs";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(std::string("material.damping.") + field), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("springs"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("damping.stiffness"), std::string::npos) << e.what();
+    }
+  }
+  // beta alone is what springs use, and it damps.
+  World w;
+  w.add_body(beam_scene("springs", R"({"stiffness": 1e-3})").bodies[0]);
+  EXPECT_DOUBLE_EQ(w.level<double>(0).stiffness_damping, 1e-3);
+}
+
 // ---- mass damping -------------------------------------------------------------------------
 
 // A free 0.2 x 0.1 x 0.1 m box (no fixed node) moving as a whole at v0 (m/s) under mass damping

@@ -4,13 +4,18 @@
 #include <gmock/gmock.h>
 
 #include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
 #include <cmath>
+#include <functional>
 #include <vector>
 
 #include <fmt/format.h>
 
 #include "pliant/level_passes.hpp"
 #include "pliant/run.hpp"
+#include "pliant/scheduler/executor.hpp"
 #include "pliant/world.hpp"
 
 namespace pliant {
@@ -196,6 +201,52 @@ TEST(StableStep, SubsteppingSplitsAnExplicitStep) {
   EXPECT_NEAR(w.time(), 2.5 * probe.stable_dt(), 1e-15);
 }
 
+// An explicit step that needs more sub-steps than an int counts (dt = 1e6 s on a step bound of
+// 2e-4 s) overflowed to a negative count: every step() advanced the time by dt and simulated
+// nothing, status ok. It is refused, saying how many sub-steps it would need.
+TEST(StableStep, SubsteppingBeyondWhatCanBeCountedIsRefused) {
+  WorldDef wd;
+  wd.time_step.dt = 1e6;
+  wd.time_step.substep = true;
+  World w(wd);
+  try {
+    w.add_body(beam_def(ForceModel::corotational));
+    FAIL() << "accepted, with " << w.substeps() << " sub-steps";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("time_step.dt = 1e+06 s"));
+    EXPECT_THAT(e.what(), HasSubstr("sub-steps"));
+  }
+  EXPECT_EQ(w.body_count(), 0u);
+  EXPECT_EQ(w.dt(), 0.0);  // as a new world
+  EXPECT_EQ(w.stable_dt(), 0.0);
+}
+
+// A body refused because of the step leaves the world as it was: the step, its bound and the
+// sub-steps of the bodies already there (they were left at the refused body's bound and 1 sub-step).
+TEST(StableStep, ARefusedBodyLeavesTheStepAsItWas) {
+  World probe;
+  probe.add_body(beam_def(ForceModel::corotational));
+  WorldDef wd;
+  wd.time_step.dt = 2.5 * probe.stable_dt();
+  wd.time_step.substep = true;
+  World w(wd);
+  w.add_body(beam_def(ForceModel::corotational));
+  ASSERT_EQ(w.substeps(), 3);
+  BodyDef tiny = beam_def(ForceModel::corotational);  // 1 um cells of a stiff material: a 1e-11 s bound
+  tiny.name = "tiny";
+  tiny.mesh.min = {0, 0, 0};
+  tiny.mesh.max = {4e-5, 1e-5, 1e-5};
+  tiny.fixed.clear();
+  tiny.prescribed.clear();
+  tiny.loads.clear();
+  tiny.material.young = 1e12;
+  EXPECT_THROW(w.add_body(tiny), InputError);
+  EXPECT_EQ(w.body_count(), 1u);
+  EXPECT_EQ(w.substeps(), 3);
+  EXPECT_EQ(w.stable_dt(), probe.stable_dt());
+  EXPECT_EQ(w.dt(), 2.5 * probe.stable_dt());
+}
+
 TEST(StableStep, ExplicitStepBelowTheBoundIsUsed) {
   World probe;
   probe.add_body(beam_def(ForceModel::corotational));
@@ -353,6 +404,68 @@ TEST(PrescribedMotion, HostCanDriveARegion) {
     }
   EXPECT_TRUE(found);
   EXPECT_THROW(w.set_motion_offset(0, 3, {0, 0, 0}), InputError);
+}
+
+// A host fills BodyDef in code, where nothing stops a NaN or an infinity (scene files cannot hold
+// them). A NaN keyframe time made offset_at index before the first keyframe, a non-finite offset
+// or load made the first step report a divergence (exit 3) for what is bad input, and an infinite
+// viscosity made the step NaN. Each is refused at add_body, naming the field.
+TEST(Api, NonFiniteNumbersFromAHostAreRefusedNamingTheField) {
+  const double nan = std::nan(""), inf = INFINITY;
+  struct Case {
+    const char* field;
+    std::function<void(BodyDef&)> spoil;
+  };
+  const Case cases[] = {
+      {"prescribed[0].keyframes[1].time", [&](BodyDef& b) { b.prescribed[0].keyframes[1].time = nan; }},
+      {"prescribed[0].keyframes[0].offset", [&](BodyDef& b) { b.prescribed[0].keyframes[0].offset[2] = inf; }},
+      {"loads[0].force", [&](BodyDef& b) { b.loads[0].total_force[1] = nan; }},
+      {"material.damping.bulk_viscosity", [&](BodyDef& b) { b.material.damping.bulk_viscosity = inf; }},
+      {"material.damping.shear_viscosity", [&](BodyDef& b) { b.material.damping.shear_viscosity = inf; }},
+  };
+  for (const Case& c : cases) {
+    BodyDef b = beam_def(ForceModel::corotational);
+    c.spoil(b);
+    World w;
+    try {
+      w.add_body(b);
+      ADD_FAILURE() << c.field << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(c.field));
+    }
+  }
+}
+
+// Numbers that are fine in double but do not fit a float world (moduli beyond 3.4e38 Pa, masses
+// or volumes below float's range) ran and "diverged" at step 0 (exit 3) for what is bad input for
+// that precision. They are refused at add_body, naming the quantity and the precision.
+TEST(Api, NumbersBeyondTheFloatRangeAreRefusedInAFloatWorld) {
+  struct Case {
+    const char* what;
+    std::function<void(BodyDef&)> set;
+  };
+  const Case cases[] = {
+      {"material.young", [](BodyDef& b) { b.material.young = 1e39; }},
+      {"material.density", [](BodyDef& b) { b.material.density = 1e-50; }},
+      {"rest volume", [](BodyDef& b) { b.mesh.max = {4e-14, 1e-14, 1e-14}; b.fixed.clear(); b.prescribed.clear(); b.loads.clear(); }},
+  };
+  for (const Case& c : cases) {
+    BodyDef b = beam_def(ForceModel::corotational);
+    c.set(b);
+    WorldDef wd;
+    wd.precision = Precision::float32;
+    World f(wd);
+    try {
+      f.add_body(b);
+      ADD_FAILURE() << c.what << " accepted in float";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr(c.what));
+      EXPECT_THAT(e.what(), HasSubstr("float"));
+    }
+    wd.precision = Precision::float64;
+    World d(wd);
+    EXPECT_NO_THROW(d.add_body(b)) << c.what << " in double";
+  }
 }
 
 TEST(Regions, ARegionThatSelectsNoNodeIsAnError) {
@@ -526,6 +639,87 @@ TEST(Runner, SummaryHasTheDocumentedFields) {
   EXPECT_EQ(s.state_hash.size(), 16u);
   EXPECT_EQ(s.model, "corotational");
   EXPECT_GT(s.max_displacement, 0.0);
+}
+
+// A duration whose step count does not fit was run as 0 steps with status "ok" (the count
+// overflowed int64). What cannot be run is refused, naming the duration, the step and the limit;
+// the largest runnable count still runs (checked by its count only: the limit is 2^53 steps).
+TEST(Runner, ADurationTooLongToCountIsRefused) {
+  SceneDef scene;
+  scene.bodies.push_back(beam_def(ForceModel::corotational));
+  RunOptions opt;
+  opt.write_files = false;
+  for (double duration : {1e30, 1e300}) {
+    scene.duration = duration;
+    try {
+      (void)run_scene(scene, opt);
+      ADD_FAILURE() << "duration " << duration << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("duration"));
+      EXPECT_THAT(e.what(), HasSubstr("steps"));
+    }
+  }
+  scene.duration = 1.0;
+  opt.duration = 1e30;  // the override (`pliant run --duration`) too
+  EXPECT_THROW((void)run_scene(scene, opt), InputError);
+}
+
+// More threads than the process may use were accepted and reported (--threads 100000): TBB ran
+// on the cores it has anyway. They are clamped to the cores (Executor::default_threads(), which
+// follows the process's CPU affinity), World::threads() reports the number used, and the runner
+// says so in a note (printed by `pliant run`, kept in summary.json).
+TEST(Threads, MoreThanTheCoresAreClampedToThemAndSaid) {
+  const int cores = Executor::default_threads();
+  WorldDef wd;
+  wd.threads = 100000;
+  World w(wd);
+  EXPECT_EQ(w.threads(), cores);
+  wd.threads = 0;
+  EXPECT_EQ(World(wd).threads(), cores);
+  wd.threads = 1;
+  EXPECT_EQ(World(wd).threads(), 1);
+  wd.threads = -1;
+  EXPECT_THROW(World{wd}, InputError);
+
+  SceneDef scene;
+  scene.duration = 0.002;
+  scene.bodies.push_back(beam_def(ForceModel::linear));
+  RunOptions opt;
+  opt.write_files = false;
+  opt.threads = 100000;
+  const RunSummary s = run_scene(scene, opt);
+  EXPECT_EQ(s.threads, cores);
+  ASSERT_FALSE(s.notes.empty());
+  EXPECT_THAT(s.notes.back(), HasSubstr(fmt::format("100000 threads asked, {} used", cores)));
+}
+
+// Output intervals far below the step (1e-20 s: below the rounding unit of the time itself)
+// record once per step. The runner advanced "next record" by adding the interval until it passed
+// the time: 1e16 additions per step, a hang. Probes, VTU frames and the frame callback.
+TEST(Runner, OutputIntervalsBelowTheStepRecordOncePerStep) {
+  SceneDef scene;
+  scene.duration = 0.002;
+  scene.bodies.push_back(beam_def(ForceModel::corotational));
+  scene.probes.push_back({"tip", "beam", {0.4, 0.05, 0.05}});
+  scene.output.probe_every = 1e-20;
+  scene.output.vtu_every = 1e-20;
+  RunOptions opt;
+  opt.out_dir = std::filesystem::temp_directory_path() / fmt::format("pliant_test_runner_{}", ::getpid());
+  int frames = 0;
+  opt.frame_every = 1e-20;
+  opt.on_frame = [&](const World&) { ++frames; };
+  const RunSummary s = run_scene(scene, opt);
+  ASSERT_GT(s.steps, 5);
+  EXPECT_EQ(frames, s.steps + 1);  // the initial state, then every step
+  std::size_t vtus = 0;
+  for (const auto& f : s.files) vtus += f.rfind("vtu/", 0) == 0;
+  EXPECT_EQ(vtus, std::size_t(s.steps + 1));
+  std::ifstream csv(opt.out_dir / "probes.csv");
+  std::string line;
+  std::int64_t rows = -1;  // the header
+  while (std::getline(csv, line)) ++rows;
+  EXPECT_EQ(rows, s.steps + 1);
+  std::filesystem::remove_all(opt.out_dir);
 }
 
 }  // namespace

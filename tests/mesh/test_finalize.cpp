@@ -125,18 +125,52 @@ TEST(Finalize, DegenerateTetIsRejectedNamingSourceAndCell) {
   EXPECT_THAT(msg, StartsWith("/path/x.vtu: cell 2: degenerate tetrahedron (volume 0)"));
 }
 
-TEST(Finalize, DegeneracyThresholdIsRelativeToTheMeshSize) {
+TEST(Finalize, DegeneracyIsJudgedByEachTetsOwnSize) {
   // A millimetre cube is fine...
   TetMesh small = unit_cube();
   for (double& x : small.points) x *= 1e-3;
   MeshLoadReport report;
   EXPECT_NO_THROW(finalize_tet_mesh(small, "mm", report));
   EXPECT_NEAR(total_volume(small), 1e-9, 1e-22);
-  // ...but a sliver whose apex is 1e-13 above its base, in a unit-size mesh, is not.
+  // ...but a sliver whose apex is 1e-13 above its base, in a unit-size mesh, is not...
   TetMesh m = unit_cube();
   m.points.insert(m.points.end(), {0.5, 0.5, 1e-13});
   m.tets.push_back(Tet{0, 1, 2, 8});
   EXPECT_THAT(finalize_error(m), HasSubstr(": cell 5: degenerate tetrahedron"));
+  // ...and neither is the same sliver shrunk a million times inside a micrometre mesh: the
+  // threshold follows the tet's own edges, not the units.
+  for (double& x : m.points) x *= 1e-6;
+  EXPECT_THAT(finalize_error(m), HasSubstr(": cell 5: degenerate tetrahedron"));
+}
+
+// A valid 10 m x 1 mm x 1 mm bar of 2000 x 1 x 1 cells: every tet has a volume of about
+// 1e-9 m^3, below 1e-12 x (diagonal of the whole mesh)^3 = 1e-9 m^3, which refused it. Each tet
+// is judged by its own edges now.
+TEST(Finalize, AThinValidBarIsAccepted) {
+  for (int tets_per_cell : {5, 6}) {
+    TetMesh bar = make_box_mesh({0, 0, 0}, {10, 0.001, 0.001}, {2000, 1, 1}, tets_per_cell);
+    MeshLoadReport report;
+    ASSERT_NO_THROW(finalize_tet_mesh(bar, "bar", report)) << tets_per_cell << " tets per cell";
+    EXPECT_NEAR(total_volume(bar), 1e-5, 1e-17);
+    EXPECT_EQ(report.reoriented_tets, 0u);
+  }
+}
+
+// One big tet far away made every small healthy tet "degenerate" (the threshold followed the
+// bounding box), and the message blamed cell 0, a healthy tet.
+TEST(Finalize, AFarAwayTetDoesNotMakeHealthyTetsDegenerate) {
+  TetMesh m = unit_cube();
+  for (double& x : m.points) x *= 1e-3;  // a millimetre cube...
+  const std::int32_t n = std::int32_t(m.node_count());
+  m.points.insert(m.points.end(), {1000, 0, 0, 1001, 0, 0, 1000, 1, 0, 1000, 0, 1});  // ...and a 1 m tet 1 km away
+  m.tets.push_back(Tet{n, n + 1, n + 2, n + 3});
+  MeshLoadReport report;
+  ASSERT_NO_THROW(finalize_tet_mesh(m, "two parts", report));
+  EXPECT_NEAR(total_volume(m), 1e-9 + 1.0 / 6, 1e-12);
+  // A genuinely flat tet among them is still the one named.
+  m.points.insert(m.points.end(), {2e-3, 0, 0, 3e-3, 0, 0, 2e-3, 1e-3, 0, 2.5e-3, 0.5e-3, 0});
+  m.tets.push_back(Tet{n + 4, n + 5, n + 6, n + 7});
+  EXPECT_THAT(finalize_error(m), HasSubstr(": cell 6: degenerate tetrahedron (volume 0)"));
 }
 
 TEST(Finalize, OutOfRangeIndicesAreRejected) {

@@ -263,9 +263,9 @@ INSTANTIATE_TEST_SUITE_P(
     Dispatch, BadFile,
     ::testing::Values(
         BadCase{"cube.stl", "cube.stl", ": unknown mesh file extension '.stl'", ".msh"},
-        BadCase{"missing.msh", "missing.msh", ": cannot open file", "No such file"},
-        BadCase{"missing.vtk", "missing.vtk", ": cannot open file", ""},
-        BadCase{"missing.vtu", "missing.vtu", ": cannot open file", ""},
+        BadCase{"missing.msh", "missing.msh", ": cannot open mesh file", "No such file"},
+        BadCase{"missing.vtk", "missing.vtk", ": cannot open mesh file", ""},
+        BadCase{"missing.vtu", "missing.vtu", ": cannot open mesh file", ""},
         BadCase{"missing.ele", "missing.node", ": cannot open file", ""}),
     [](const auto& info) { return test_name(info.param.file); });
 

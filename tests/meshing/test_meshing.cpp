@@ -14,6 +14,7 @@
 #include <thread>
 #include <unistd.h>
 
+#include "../support/special_files.hpp"
 #include "pliant/error.hpp"
 #include "pliant/meshing.hpp"
 
@@ -308,6 +309,23 @@ TEST_F(CgalMeshing, BadShapeArguments) {
   }
   msg = input_error([] { mesh_implicit_shape("organ", 0.0002); });  // ~1e8 tets
   EXPECT_TRUE(contains(msg, "too small")) << msg;
+}
+
+// A surface that is a FIFO (CGAL's reader waited on it) or a link to /dev/zero: refused, naming
+// the path and what it is, without opening the FIFO.
+TEST_F(CgalMeshing, SurfaceFilesMustBeRegularFiles) {
+  const fs::path dir = fs::temp_directory_path() / ("pliant_test_meshing_special_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  {
+    const special::Fifo fifo(dir / "fifo.stl");
+    const std::string msg = input_error([&] { mesh_surface_file(fifo.path(), 0.1); });
+    EXPECT_TRUE(contains(msg, "fifo.stl: is a FIFO (named pipe), not a regular file")) << msg;
+    EXPECT_FALSE(fifo.opened());
+  }
+  const fs::path zero = special::link_to_dev_zero(dir / "zero.obj");
+  const std::string msg = input_error([&] { mesh_surface_file(zero, 0.1); });
+  EXPECT_TRUE(contains(msg, "zero.obj: is a character device")) << msg;
+  fs::remove_all(dir);
 }
 
 TEST_F(CgalMeshing, OrganSizesAndTimes) {

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "../support/special_files.hpp"
 #include "pliant/error.hpp"
 #include "pliant/mesh_io.hpp"
 #include "pliant/raster/image.hpp"
@@ -684,6 +685,32 @@ TEST(Recorder, TinyMemoryBudgetStillWritesEverything) {
   EXPECT_FALSE(r.notes.empty());
 }
 
+// A frame interval far below the step (1e-12 s over a 0.02 s run: 2e10 frames "expected", past
+// int) gives a frame per step and a sheet of the whole run, also when frames are flushed during it.
+TEST(Recorder, FrameIntervalFarBelowTheStepGivesAFramePerStepAndASheet) {
+  const SceneDef scene = small_scene();
+  RecorderOptions ro;
+  ro.out_dir = scratch("tiny_interval");
+  ro.png_every = 1e-12;
+  ro.sheet = true;
+  ro.width = 32;
+  ro.height = 32;
+  ro.sheet_thumb_width = 32;
+  ro.memory_budget = 1;  // flush at every frame: the planned sheet frames are used
+  FrameRecorder rec(scene, ro, scene.duration);
+  RunOptions opt;
+  opt.write_files = false;
+  opt.frame_every = rec.frame_every();
+  opt.on_frame = [&](const World& w) { rec.capture(w); };
+  const RunSummary s = run_scene(scene, opt);
+  const RecorderResult r = rec.finish();
+  EXPECT_EQ(r.frames, s.steps + 1);
+  ASSERT_TRUE(fs::exists(ro.out_dir / "sheet.png"));
+  // Four columns of 32-pixel thumbnails (margins 12, gaps 8): the sheet shows the run, not one
+  // picture (the frame count overflowed int and planned the sheet for frame INT_MIN: 56 px wide).
+  EXPECT_GE(read_png(ro.out_dir / "sheet.png").width(), 2 * 12 + 4 * 32 + 3 * 8);
+}
+
 TEST(Recorder, BadOptionsAreRefused) {
   const SceneDef scene = small_scene();
   RecorderOptions ro;
@@ -696,6 +723,24 @@ TEST(Recorder, BadOptionsAreRefused) {
 }
 
 // ---- stored states: a run's .vtu files ----
+
+// The .pvd files next to a stored frame are read to find its time: a FIFO or a link to /dev/zero
+// named .pvd there is skipped without being opened (it hung `pliant render`), and the time still
+// comes from the real series.pvd.
+TEST(StoredState, SpecialFilesNamedPvdBesideAFrameAreSkipped) {
+  SceneDef scene = small_scene();
+  scene.output.vtu_every = 0.01;
+  RunOptions opt;
+  opt.out_dir = scratch("stored_special");
+  run_scene(scene, opt);
+  const fs::path frame = opt.out_dir / "vtu" / "b_00001.vtu";
+  special::link_to_dev_zero(opt.out_dir / "a_zero.pvd");
+  const special::Fifo fifo(opt.out_dir / "vtu" / "a_fifo.pvd");
+  const StoredFields f = read_stored_fields(frame, read_tet_mesh(frame));
+  EXPECT_FALSE(fifo.opened());
+  ASSERT_TRUE(f.time.has_value());
+  EXPECT_NEAR(*f.time, 0.01, 1e-3);
+}
 
 TEST(StoredState, RunFramesCarryDisplacementVonMisesAndTime) {
   SceneDef scene = small_scene();

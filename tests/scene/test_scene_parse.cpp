@@ -9,6 +9,7 @@
 #include <fstream>
 #include <string>
 
+#include "../support/special_files.hpp"
 #include "pliant/error.hpp"
 #include "pliant/scene.hpp"
 
@@ -396,3 +397,43 @@ TEST(SceneOverrides, BadOverridesNameThemselves) {
     EXPECT_NE(std::string(e.what()).find("bodies[0].materail: unknown key"), std::string::npos) << e.what();
   }
 }
+
+namespace {
+
+// A scene path that is a FIFO (its open waited for a writer), a link to /dev/zero (read until
+// memory ran out) or a directory: refused, naming the path and what it is. A scene's mesh file
+// that is one of those is refused by the scene reader too.
+TEST(SceneFile, OnlyRegularFilesAreRead) {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / ("pliant_test_scene_special_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  auto error_of = [](const fs::path& p) {
+    try {
+      pliant::load_scene_file(p);
+    } catch (const pliant::InputError& e) {
+      return std::string(e.what());
+    } catch (const std::exception& e) {
+      return std::string("not an InputError: ") + e.what();
+    }
+    return std::string("no error");
+  };
+  {
+    const pliant::special::Fifo fifo(dir / "fifo.json");
+    EXPECT_NE(error_of(fifo.path()).find(fifo.path().string() + ": is a FIFO (named pipe), not a regular file"),
+              std::string::npos)
+        << error_of(fifo.path());
+    EXPECT_FALSE(fifo.opened());
+  }
+  const fs::path zero = pliant::special::link_to_dev_zero(dir / "zero.json");
+  EXPECT_NE(error_of(zero).find("character device"), std::string::npos) << error_of(zero);
+  EXPECT_NE(error_of(dir).find("is a directory"), std::string::npos) << error_of(dir);
+  // A scene naming a mesh file that is a link to /dev/zero.
+  pliant::special::link_to_dev_zero(dir / "zero.msh");
+  { std::ofstream(dir / "mesh_zero.json") << R"({"bodies": [{"mesh": {"file": "zero.msh"}}]})"; }
+  EXPECT_NE(error_of(dir / "mesh_zero.json").find("zero.msh"), std::string::npos) << error_of(dir / "mesh_zero.json");
+  EXPECT_NE(error_of(dir / "mesh_zero.json").find("not a regular file"), std::string::npos);
+  fs::remove_all(dir);
+}
+
+}  // namespace
+

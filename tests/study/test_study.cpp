@@ -3,6 +3,7 @@
 // shipped validation scenes.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
 #include <cstring>
@@ -10,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "../support/special_files.hpp"
 #include "pliant/error.hpp"
 #include "pliant/perf/study.hpp"
 
@@ -162,6 +164,11 @@ TEST(ReferenceFile, ErrorsNameTheFileAndTheField) {
               HasSubstr("r.json: invalid JSON"));
   EXPECT_THAT(error_of([] { load_reference_file("/nonexistent/x.reference.json"); }),
               HasSubstr("/nonexistent/x.reference.json: cannot open reference file"));
+  // Only regular files: a link to /dev/zero was read until memory ran out.
+  const fs::path zero = special::link_to_dev_zero(fs::temp_directory_path() /
+                                                   ("pliant_test_zero_" + std::to_string(::getpid()) + ".json"));
+  EXPECT_THAT(error_of([&] { load_reference_file(zero); }), HasSubstr(zero.string() + ": is a character device"));
+  fs::remove(zero);
   EXPECT_EQ(reference_path_for("scenes/validation/slender_bar.json"),
             fs::path("scenes/validation/slender_bar.reference.json"));
 }
@@ -323,6 +330,11 @@ TEST(Study, BadOverridesAndReferencesFailBeforeAnyRun) {
   o.measure = "";
   o.reference = "";
   EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("no reference file"));
+  // A scene that is a FIFO: refused without being opened (its open waited for a writer).
+  const special::Fifo fifo(dir / "fifo.json");
+  o.scene = fifo.path();
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("fifo.json: is a FIFO (named pipe), not a regular file"));
+  EXPECT_FALSE(fifo.opened());
 }
 
 TEST(Study, TinySlenderBarStudy) {

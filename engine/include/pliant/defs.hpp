@@ -68,7 +68,8 @@ struct MeshSourceDef {
   int tets_per_cell = 6;  // 5 or 6
   // file (volume mesh) or surface (closed triangle surface meshed by CGAL); absolute after loading
   std::filesystem::path path;
-  // surface or implicit: target cell size (m)
+  // surface or implicit: target cell size (m) of the body as simulated, after scale (the mesher
+  // gets cell_size / scale in the units of the surface or shape)
   double cell_size = 0;
   // implicit: name of a shipped shape ("organ", ...)
   std::string shape;
@@ -153,7 +154,8 @@ struct ObstacleDef {
 struct WorldDef {
   Vec3d gravity{0, 0, -9.81};   // m/s^2
   Precision precision = Precision::float64;
-  int threads = 0;              // 0: all cores the process may use
+  int threads = 0;              // 0: all cores the process may use; more than those is clamped to them
+                                //   (World::threads() reports the number used)
   TimeStepDef time_step;
   Schedule schedule = Schedule::staggered;
   std::vector<ObstacleDef> obstacles;  // static half-spaces (none by default)

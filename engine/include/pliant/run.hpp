@@ -63,7 +63,8 @@ struct RunSummary {
   double kinetic_energy = 0, elastic_energy = 0, potential_energy = 0;  // J
   std::string state_hash;        // 16 hex digits
   std::vector<std::string> files;  // written, relative to out_dir
-  std::vector<std::string> notes;  // what loading fixed in the meshes, one line per body that needed it
+  std::vector<std::string> notes;  // what loading fixed in the meshes (one line per body that needed it), and a
+                                   // thread count clamped to the cores
   // Multiresolution and the schedule (docs/multiresolution.md): every level of every body, the
   // tets computed over the run, and the per-tick work and wall time.
   struct Level {

@@ -35,7 +35,7 @@ struct MeshLoadReport {
 double signed_tet_volume(const Vec3d& a, const Vec3d& b, const Vec3d& c, const Vec3d& d);
 
 // Checks and normalises a freshly read mesh: every coordinate finite, every index in range,
-// no repeated corner, no degenerate tet (|V| <= 1e-12 * (bbox diagonal)^3); inverted tets are
+// no repeated corner, no degenerate tet (|V| <= 1e-12 L^3, L the tet's longest edge); inverted tets are
 // re-oriented, unused vertices dropped (indices remapped). `source` names the file in messages,
 // cells are counted from 0 as they were read. Throws InputError.
 void finalize_tet_mesh(TetMesh& mesh, const std::string& source, MeshLoadReport& report);

@@ -97,7 +97,7 @@ class World {
   const std::vector<ObstacleDef>& obstacles() const;  // WorldDef::obstacles, normals of unit length
   Precision precision() const;
   Schedule schedule() const;
-  int threads() const;
+  int threads() const;  // used: WorldDef::threads, clamped to the cores the process may use (0: all of them)
 
   std::size_t body_count() const;
   BodyId find_body(std::string_view name) const;  // -1 if there is none

@@ -4,6 +4,7 @@
 // (stable_step.cpp).
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <fmt/format.h>
 
 #include "pliant/error.hpp"
@@ -81,10 +82,54 @@ void check_material(const MaterialDef& m, const std::string& body) {
   if (!(m.damping.mass >= 0) || !std::isfinite(m.damping.mass)) bad("damping.mass", m.damping.mass, ">= 0 (1/s)");
   if (!(m.damping.stiffness >= 0) || !std::isfinite(m.damping.stiffness))
     bad("damping.stiffness", m.damping.stiffness, ">= 0 (s)");
-  if (m.damping.bulk_viscosity && !(*m.damping.bulk_viscosity >= 0))
-    bad("damping.bulk_viscosity", *m.damping.bulk_viscosity, ">= 0 (Pa s)");
-  if (m.damping.shear_viscosity && !(*m.damping.shear_viscosity >= 0))
-    bad("damping.shear_viscosity", *m.damping.shear_viscosity, ">= 0 (Pa s)");
+  if (m.damping.bulk_viscosity && (!(*m.damping.bulk_viscosity >= 0) || !std::isfinite(*m.damping.bulk_viscosity)))
+    bad("damping.bulk_viscosity", *m.damping.bulk_viscosity, "a finite number >= 0 (Pa s)");
+  if (m.damping.shear_viscosity && (!(*m.damping.shear_viscosity >= 0) || !std::isfinite(*m.damping.shear_viscosity)))
+    bad("damping.shear_viscosity", *m.damping.shear_viscosity, "a finite number >= 0 (Pa s)");
+}
+
+// The springs model has no bulk or shear: its dashpots are beta (damping.stiffness) times each
+// spring's stiffness. Viscosities given for it would be silently ignored, so they are refused.
+void check_model_damping(const MaterialDef& m, ForceModel model, const std::string& body) {
+  if (model != ForceModel::springs) return;
+  for (const auto& [field, value] : {std::pair{"bulk_viscosity", m.damping.bulk_viscosity},
+                                     std::pair{"shear_viscosity", m.damping.shear_viscosity}})
+    if (value)
+      throw InputError(fmt::format(
+          "body '{}': material.damping.{} is not used by the springs model (a spring network has no bulk or "
+          "shear viscosity: its dashpots are damping.stiffness times each spring's stiffness); remove it and use "
+          "damping.stiffness, or choose another model",
+          body, field));
+}
+
+// What a float world cannot hold: numbers valid in double whose float is infinite, zero or
+// subnormal. They ran and "diverged" at step 0 (exit 3), for input that does not fit the chosen
+// precision. Checked on the level as built (its own T values), so also right for double.
+template <class T>
+void check_precision_range(const Level<T>& L, const BodyDef& def, const std::vector<double>& mass) {
+  const char* precision = sizeof(T) == 4 ? "float" : "double";
+  constexpr double lo = double(std::numeric_limits<T>::min()), hi = double(std::numeric_limits<T>::max());
+  auto refuse = [&](const std::string& what) {
+    throw InputError(fmt::format("body '{}': {}, outside the range of {} precision ({:.2g} .. {:.2g}){}", def.name, what,
+                                 precision, lo, hi, sizeof(T) == 4 ? ": use \"precision\": \"double\"" : ""));
+  };
+  const MaterialDef& m = def.material;
+  const bool moduli = std::isfinite(double(L.lambda)) && std::isfinite(double(L.mu)) && double(L.mu) >= lo &&
+                      std::isfinite(double(L.young)) && double(L.young) >= lo;
+  if (!moduli) refuse(fmt::format("material.young = {:g} Pa gives Lame coefficients {:g} and {:g} Pa", m.young,
+                                  m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson)), m.young / (2 * (1 + m.poisson))));
+  if (!std::isfinite(double(L.bulk_viscosity)) || !std::isfinite(double(L.shear_viscosity)))
+    refuse(fmt::format("material.damping viscosities {:g} and {:g} Pa s", double(L.bulk_viscosity), double(L.shear_viscosity)));
+  for (std::size_t t = 0; t < L.tet_count; ++t) {
+    if (!(double(L.volume[t]) >= lo))
+      refuse(fmt::format("the rest volume of tet {} is {:g} m^3 (scale the mesh to metres?)", t, double(L.volume[t])));
+    for (const auto& g : L.grad)
+      if (!std::isfinite(double(g[t])))
+        refuse(fmt::format("the rest shape gradients of tet {} are beyond {:g} 1/m (scale the mesh to metres?)", t, hi));
+  }
+  for (std::size_t n = 0; n < L.node_count; ++n)
+    if (!(double(L.mass[n]) >= lo) || !std::isfinite(double(L.inv_mass[n])))
+      refuse(fmt::format("material.density = {:g} kg/m^3 gives node {} a mass of {:g} kg", m.density, n, mass[n]));
 }
 
 struct Lame {
@@ -127,6 +172,7 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
                      std::vector<MotionState>& motions, Executor& exec, bool regions_may_be_empty) {
   const bool lax = regions_may_be_empty;
   check_material(def.material, def.name);
+  check_model_damping(def.material, def.model, def.name);
   Level<T> L;
   const std::size_t nn = mesh.node_count(), nt = mesh.tet_count();
   L.node_count = nn;
@@ -192,6 +238,18 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
     m.nodes.push_back(select_nodes(mesh, def.prescribed[i].region, fmt::format("prescribed[{}]", i), def.name, lax));
     m.host_from.resize(1);
     m.keyframes = def.prescribed[i].keyframes;
+    // A host's BodyDef may hold what a scene file cannot (NaN, infinities): a NaN time broke the
+    // search of offset_at, a non-finite offset looked like a divergence at the first step.
+    for (std::size_t k = 0; k < m.keyframes.size(); ++k) {
+      const KeyframeDef& kf = m.keyframes[k];
+      if (!std::isfinite(kf.time))
+        throw InputError(fmt::format("body '{}': prescribed[{}].keyframes[{}].time must be a finite number (s), got {}",
+                                     def.name, i, k, kf.time));
+      if (!std::isfinite(kf.offset[0]) || !std::isfinite(kf.offset[1]) || !std::isfinite(kf.offset[2]))
+        throw InputError(fmt::format("body '{}': prescribed[{}].keyframes[{}].offset must be 3 finite numbers (m), got "
+                                     "[{}, {}, {}]",
+                                     def.name, i, k, kf.offset[0], kf.offset[1], kf.offset[2]));
+    }
     for (std::size_t k = 1; k < m.keyframes.size(); ++k)
       if (m.keyframes[k].time < m.keyframes[k - 1].time)
         throw InputError(fmt::format("body '{}': prescribed[{}].keyframes must be sorted by time", def.name, i));
@@ -204,6 +262,10 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   if (!def.loads.empty()) {
     for (auto& e : L.external) e.assign(nn, T(0));
     for (std::size_t i = 0; i < def.loads.size(); ++i) {
+      const Vec3d& force = def.loads[i].total_force;
+      if (!std::isfinite(force[0]) || !std::isfinite(force[1]) || !std::isfinite(force[2]))
+        throw InputError(fmt::format("body '{}': loads[{}].force must be 3 finite numbers (N), got [{}, {}, {}]", def.name,
+                                     i, force[0], force[1], force[2]));
       const auto nodes = select_nodes(mesh, def.loads[i].region, fmt::format("loads[{}]", i), def.name, lax);
       for (auto n : nodes)
         for (int k = 0; k < 3; ++k) L.external[k][n] += T(def.loads[i].total_force[k] / double(nodes.size()));
@@ -226,6 +288,7 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   L.mass_damping = T(d.mass);
   L.young = T(def.material.young);
   L.stiffness_damping = T(d.stiffness);
+  check_precision_range(L, def, mass);
   L.min_altitude = h_min;
   // The step: for the higher of the geometric frequency 2 c_p / h_min and the measured one
   // (stable_step.cpp; a Ritz value approaches from below, hence the margin).

@@ -103,6 +103,15 @@ void write_node_map(const fs::path& path, const World& w) {
   if (std::fclose(f) != 0 || !ok) throw InputError(fmt::format("{}: cannot write", path.string()));
 }
 
+// When the next record is due after one at time t (s): the first multiple of `every` (s, > 0)
+// past t + eps, in closed form. Adding `every` until past t cost t / every additions, a hang for
+// intervals far below the step (and forever once `every` is below the rounding unit of t).
+double next_due(double every, double t, double eps) {
+  const double k = std::floor((t + eps) / every) + 1;
+  const double next = k * every;
+  return next > t + eps ? next : (k + 1) * every;  // (k + 1): k * every rounded down onto t
+}
+
 void write_summary(const fs::path& path, const RunSummary& s) {
   nlohmann::ordered_json j;
   j["status"] = s.status;
@@ -150,7 +159,19 @@ void write_summary(const fs::path& path, const RunSummary& s) {
 
 }  // namespace
 
-std::int64_t steps_for(double duration, double dt) { return std::int64_t(std::ceil(duration / dt - 1e-9)); }
+// Whole steps up to the duration, at most 2^53: beyond that the simulated time (a double,
+// advanced by dt each step) no longer advances by whole steps. A count beyond int64 (1e30 s)
+// used to overflow and run 0 steps reporting "ok".
+std::int64_t steps_for(double duration, double dt) {
+  const double step_count = std::ceil(duration / dt - 1e-9);
+  constexpr double kMaxSteps = 9007199254740992.0;  // 2^53
+  if (!(step_count <= kMaxSteps))
+    throw InputError(fmt::format(
+        "duration {:g} s needs {:.3g} steps of {:.4g} s; at most 2^53 = {:.4g} steps can be run (the simulated time, "
+        "a double, stops advancing by whole steps beyond that): give a shorter duration",
+        duration, step_count, dt, kMaxSteps));
+  return std::int64_t(step_count);
+}
 
 RunSummary run_scene(const SceneDef& scene, const RunOptions& options) {
   const double duration = options.duration.value_or(scene.duration);
@@ -169,6 +190,10 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   RunSummary s;
   s.precision = to_string(world.precision());
   s.threads = world.threads();
+  const int asked = options.threads.value_or(scene.world.threads);
+  if (asked > world.threads())
+    s.notes.push_back(fmt::format("threads: {} threads asked, {} used (the cores this process may use)", asked,
+                                  world.threads()));
   s.dt = world.dt();
   s.stable_dt = world.stable_dt();
   s.substeps = world.substeps();
@@ -214,19 +239,17 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     for (std::int64_t i = 0; i < total_steps; ++i) {
       world.step();
       clock.stepped(world.substeps());
-      if (world.time() + eps >= next_probe) {
+      if (world.time() + eps >= next_probe) {  // probe_every = 0: every step
         probes.write(world);
-        next_probe += scene.output.probe_every;
-        if (scene.output.probe_every > 0)
-          while (next_probe <= world.time() + eps) next_probe += scene.output.probe_every;
+        if (scene.output.probe_every > 0) next_probe = next_due(scene.output.probe_every, world.time(), eps);
       }
       if (vtu.enabled() && world.time() + eps >= next_vtu) {
         vtu.write(world, s.files);
-        while (next_vtu <= world.time() + eps) next_vtu += scene.output.vtu_every;
+        next_vtu = next_due(scene.output.vtu_every, world.time(), eps);
       }
       if (frames && world.time() + eps >= next_frame) {
         options.on_frame(world);
-        while (next_frame <= world.time() + eps) next_frame += options.frame_every;
+        next_frame = next_due(options.frame_every, world.time(), eps);
       }
       if (options.on_progress && i + 1 < total_steps) {
         const double wall = clock.wall();

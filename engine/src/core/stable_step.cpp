@@ -69,13 +69,20 @@ double geometric_frequency(double h_min, const MaterialDef& m) {
 double stable_step_for(double omega_max, const MaterialDef& m, ForceModel model, double courant) {
   const double lambda = m.young * m.poisson / ((1 + m.poisson) * (1 - 2 * m.poisson));
   const double mu = m.young / (2 * (1 + m.poisson));
-  const double modulus = lambda + 2 * mu;  // P-wave modulus (Pa)
-  // Damping ratio of the highest mode: viscous stress acts like a Rayleigh stiffness factor
-  // beta = (phi + 2 psi) / (lambda + 2 mu); mass damping contributes alpha / (2 omega).
+  // Damping ratio of the highest mode, zeta = beta omega / 2 + alpha / (2 omega), with beta the
+  // largest damping-to-stiffness ratio over the element's modes (docs/architecture.md, "Time
+  // step", for the derivation): split a strain into its volumetric and deviatoric parts; the
+  // elastic energy density is (lambda + 2 mu / 3) tr(e)^2 + 2 mu |dev e|^2, the viscous one
+  // (phi + 2 psi / 3) tr(e)^2 + 2 psi |dev e|^2, so their ratio is at most
+  // max((3 phi + 2 psi) / (3 lambda + 2 mu), psi / mu), reached by a pure volume change or a pure
+  // shear. The former beta = (phi + 2 psi) / (lambda + 2 mu) is that ratio for a uniaxial strain
+  // only, below the maximum unless phi / lambda = psi / mu: bulk viscosity alone at Courant
+  // number 1 diverged (tests/core/test_damped_step.cpp). Springs: beta itself (their dashpots are
+  // beta times each spring's stiffness).
   double phi = m.damping.stiffness * lambda, psi = m.damping.stiffness * mu;
   if (m.damping.bulk_viscosity) phi = *m.damping.bulk_viscosity;
   if (m.damping.shear_viscosity) psi = *m.damping.shear_viscosity;
-  double beta = (phi + 2 * psi) / modulus;
+  double beta = std::max((3 * phi + 2 * psi) / (3 * lambda + 2 * mu), psi / mu);
   if (model == ForceModel::springs) beta = m.damping.stiffness;
   const double zeta = 0.5 * beta * omega_max + m.damping.mass / (2 * omega_max);
   // Symplectic Euler on x'' = -omega^2 x - 2 zeta omega x' (velocity terms at the old velocity)

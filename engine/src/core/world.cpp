@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <fmt/format.h>
 #include <variant>
 
@@ -88,6 +89,10 @@ struct World::Impl {
     });
     const TimeStepDef& ts = def.time_step;
     base_substeps = substeps = 1;
+    if (stable_dt == 1e300) {  // no body (the first one was refused): as a new world
+      stable_dt = dt = 0;
+      return;
+    }
     if (!ts.dt) {
       dt = aligned_tick();
       prepare();
@@ -103,7 +108,15 @@ struct World::Impl {
           "time_step.dt = {:.6g} s is above the stable bound {:.6g} s (Courant number {}); use \"auto\", a dt at or "
           "below the bound, or \"substep\": true to split each step into stable sub-steps",
           *ts.dt, stable_dt, ts.courant));
-    base_substeps = substeps = int(std::ceil(*ts.dt / stable_dt));
+    // Sub-steps per step are an int: a count beyond it overflowed to a negative one, and every
+    // step then advanced the time without simulating anything.
+    const double need = std::ceil(*ts.dt / stable_dt);
+    if (!(need <= double(std::numeric_limits<int>::max())))
+      throw InputError(fmt::format(
+          "time_step.dt = {:.6g} s would take {:.3g} sub-steps of the stable bound {:.6g} s (Courant number {}); at "
+          "most {} per step: use a smaller dt",
+          *ts.dt, need, stable_dt, ts.courant, std::numeric_limits<int>::max()));
+    base_substeps = substeps = int(need);
     dt = *ts.dt;
     prepare();
   }
@@ -216,15 +229,32 @@ namespace {
 TetMesh build_mesh_mapped(const MeshSourceDef& src, MeshLoadReport* report, std::vector<std::int32_t>* old_to_new) {
   MeshLoadReport local;
   MeshLoadReport& rep = report ? *report : local;
+  if (!(src.scale > 0 && std::isfinite(src.scale)))
+    throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
+  // cell_size is a length of the body as simulated (m, after scale: docs/scene-format.md); the
+  // mesher works in the units of the surface or shape, before scale. It was passed as is: a
+  // surface in mm with scale 0.001 and cell_size 0.004 got 4 um cells.
+  auto meshed = [&](auto&& mesher) {
+    try {
+      return mesher(src.cell_size / src.scale);
+    } catch (const InputError& e) {
+      if (src.scale == 1.0) throw;
+      throw InputError(fmt::format("mesh.cell_size {} m with scale {} is {} in the units of the {}: {}", src.cell_size,
+                                   src.scale, src.cell_size / src.scale,
+                                   src.kind == MeshSourceDef::Kind::surface ? "surface file" : "shape", e.what()));
+    }
+  };
   TetMesh mesh;
   switch (src.kind) {
     case MeshSourceDef::Kind::box: mesh = make_box_mesh(src.min, src.max, src.cells, src.tets_per_cell); break;
     case MeshSourceDef::Kind::file: mesh = read_tet_mesh(src.path, &rep); break;
-    case MeshSourceDef::Kind::surface: mesh = mesh_surface_file(src.path, src.cell_size, src.repair); break;
-    case MeshSourceDef::Kind::implicit: mesh = mesh_implicit_shape(src.shape, src.cell_size); break;
+    case MeshSourceDef::Kind::surface:
+      mesh = meshed([&](double h) { return mesh_surface_file(src.path, h, src.repair); });
+      break;
+    case MeshSourceDef::Kind::implicit:
+      mesh = meshed([&](double h) { return mesh_implicit_shape(src.shape, h); });
+      break;
   }
-  if (!(src.scale > 0 && std::isfinite(src.scale)))
-    throw InputError(fmt::format("mesh.scale must be a finite number > 0, got {}", src.scale));
   if (src.scale != 1.0 || src.translate != Vec3d{0, 0, 0}) transform_mesh(mesh, src.scale, src.translate);
   // Files and meshers come in no useful order; the kernels stream only if neighbours in space
   // are neighbours in memory (docs/performance.md). Readers and the mesher return finalized
@@ -346,7 +376,11 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
   try {
     impl_->choose_step();
   } catch (...) {
+    // Refused for its step: the world goes back to the step of the bodies it had (choose_step
+    // succeeded for them, so it does again; without it the bound and sub-steps stayed the
+    // refused body's).
     impl_->visit([](auto& s) { s.bodies.pop_back(); });
+    impl_->choose_step();
     throw;
   }
   impl_->load_reports.push_back(report);

@@ -17,7 +17,8 @@ namespace pliant::meshio {
 
 [[noreturn]] void fail(const std::string& message);  // throws InputError(message)
 
-// The whole file as bytes. Throws "<path>: cannot open file (...)" or "<path>: file is empty".
+// The whole file as bytes, through read_input_file (regular files only). Throws
+// "<path>: cannot open mesh file (...)", "<path>: is a FIFO ...", or "<path>: file is empty".
 std::string read_file(const std::filesystem::path& path);
 
 std::string_view trim(std::string_view s);
@@ -29,6 +30,17 @@ bool starts_with_nocase(std::string_view s, std::string_view prefix);
 // accepts a leading '+' and lets "nan"/"inf" through so that the caller can name them.
 bool parse_int(std::string_view token, long long& out);
 bool parse_double(std::string_view token, double& out);
+
+// A count read from a file (points, cells, values, components) against the file's size, before
+// anything is multiplied or allocated with it: at most `per_byte` items per byte of the file (1 for
+// text, where each counted item takes at least a byte; about 1100 for zlib-compressed data, whose
+// ratio is at most 1032:1). Throws "<where>: <what> is more than the file (<bytes> bytes) can
+// hold" (what: e.g. `NumberOfPoints="..."`, "the number of nodes 8"). Counts that pass multiply
+// without overflow for any file below 2^40 bytes.
+void check_count(long long n, std::size_t file_bytes, long long per_byte, const std::string& where,
+                 const std::string& what);
+// The largest count check_count accepts.
+long long count_limit(std::size_t file_bytes, long long per_byte);
 
 // 1-based line number of byte `offset` in `text` (for messages only: it counts, so it is O(n)).
 std::size_t line_of(std::string_view text, std::size_t offset);

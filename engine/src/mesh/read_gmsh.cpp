@@ -31,7 +31,7 @@ std::string shown(std::string_view s) {
 class GmshReader {
  public:
   GmshReader(std::string source, std::string_view text, MeshLoadReport& report)
-      : src_(std::move(source)), cur_(text), report_(report) {}
+      : src_(std::move(source)), cur_(text), report_(report), text_size_(text.size()) {}
 
   TetMesh read() {
     std::string_view line;
@@ -169,7 +169,14 @@ class GmshReader {
     if (tok.size() != 1) error(fmt::format("expected {}, found {} values", what, tok.size()));
     const long long n = to_int(tok[0], what);
     if (n < 0) error(fmt::format("negative {}", what));
+    check_file_count(n, fmt::format("{} {}", what, n));
     return n;
+  }
+
+  // Every counted item takes a line of the file or more: a count beyond its size is refused
+  // before it is used (check_count).
+  void check_file_count(long long n, const std::string& what) const {
+    check_count(n, text_size_, 1, fmt::format("{}:{}", src_, cur_.number()), what);
   }
 
   void read_nodes_v12(const char* end) {
@@ -226,12 +233,15 @@ class GmshReader {
     if (have_nodes_) error("second $Nodes section");
     have_nodes_ = true;
     const auto head = four_ints("'numEntityBlocks numNodes minNodeTag maxNodeTag'");
+    check_file_count(head[0], fmt::format("numEntityBlocks {}", head[0]));
+    check_file_count(head[1], fmt::format("numNodes {}", head[1]));
     const std::size_t head_line = cur_.number();
     long long total = 0;
     for (long long b = 0; b < head[0]; ++b) {
       const auto block = four_ints("a node block header 'entityDim entityTag parametric numNodes'");
       const long long n = block[3];
       if (n < 0) error("negative node count");
+      check_file_count(n, fmt::format("numNodes {} of the block", n));
       std::vector<long long> tags;
       while (static_cast<long long>(tags.size()) < n) {  // tags: one per line, or several
         for (auto t : split(data_line(fmt::format("{} node tags", n)))) {
@@ -256,11 +266,14 @@ class GmshReader {
     if (have_elements_) error("second $Elements section");
     have_elements_ = true;
     const auto head = four_ints("'numEntityBlocks numElements minElementTag maxElementTag'");
+    check_file_count(head[0], fmt::format("numEntityBlocks {}", head[0]));
+    check_file_count(head[1], fmt::format("numElements {}", head[1]));
     const std::size_t head_line = cur_.number();
     long long total = 0;
     for (long long b = 0; b < head[0]; ++b) {
       const auto block = four_ints("an element block header 'entityDim entityTag elementType numElements'");
       if (block[3] < 0) error("negative element count");
+      check_file_count(block[3], fmt::format("numElements {} of the block", block[3]));
       const std::size_t block_line = cur_.number();
       for (long long i = 0; i < block[3]; ++i) {
         const auto tok = split(data_line(fmt::format(
@@ -278,6 +291,7 @@ class GmshReader {
   std::string src_;
   LineCursor cur_;
   MeshLoadReport& report_;
+  std::size_t text_size_;  // bytes of the file
   TetMesh mesh_;
   std::unordered_map<long long, std::int32_t> node_index_;  // Gmsh node id -> index
   std::vector<Origin> origins_;                             // per kept tet: line, element id

@@ -13,6 +13,7 @@
 
 #include "mesh_reader_util.hpp"
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/mesh_io.hpp"
 
 namespace pliant {
@@ -21,16 +22,7 @@ namespace meshio {
 void fail(const std::string& message) { throw InputError(message); }
 
 std::string read_file(const std::filesystem::path& path) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec))
-    fail(fmt::format("{}: is a directory, not a mesh file", path.string()));
-  errno = 0;
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    fail(fmt::format("{}: cannot open file ({})", path.string(),
-                     errno ? std::strerror(errno) : "unknown error"));
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) fail(fmt::format("{}: read error", path.string()));
+  std::string text = read_input_file(path, "mesh file");  // regular files only
   if (trim(text).empty()) fail(fmt::format("{}: file is empty", path.string()));
   return text;
 }
@@ -84,6 +76,19 @@ bool parse_double(std::string_view t, double& out) {
   return ec == std::errc() && end == t.data() + t.size();
 }
 
+long long count_limit(std::size_t file_bytes, long long per_byte) {
+  // 2^50 at most (2^40 bytes x 1024): a product of two such counts still needs a check, one
+  // count times a small factor (3 coordinates, 10 corners) does not.
+  const double limit = double(file_bytes) * double(per_byte) + 64;
+  return limit < 1125899906842624.0 ? static_cast<long long>(limit) : 1125899906842624LL;
+}
+
+void check_count(long long n, std::size_t file_bytes, long long per_byte, const std::string& where,
+                 const std::string& what) {
+  if (n < 0 || n > count_limit(file_bytes, per_byte))
+    fail(fmt::format("{}: {} is more than the file ({} bytes) can hold", where, what, file_bytes));
+}
+
 std::size_t line_of(std::string_view text, std::size_t offset) {
   offset = std::min(offset, text.size());
   return 1 + static_cast<std::size_t>(std::count(text.begin(), text.begin() + offset, '\n'));
@@ -100,8 +105,10 @@ bool LineCursor::next() {
   return true;
 }
 
-// True when the file's first non-blank bytes open an XML document.
+// True when the file's first non-blank bytes open an XML document. Only a regular file is opened
+// (a FIFO's open would block here, before the reader's own check).
 static bool looks_like_xml(const std::filesystem::path& path) {
+  check_input_file(path, "mesh file");
   std::ifstream in(path, std::ios::binary);
   char buf[256] = {};
   in.read(buf, sizeof buf);
@@ -123,7 +130,6 @@ TetMesh read_tet_mesh(const std::filesystem::path& path, MeshLoadReport* report)
   if (ext == ".vtu") return read_vtu(path, r);
   if (ext == ".node" || ext == ".ele") return read_tetgen(path, r);
   if (ext == ".vtk") {
-    // A missing file is not XML: the legacy reader then reports that it cannot be opened.
     return meshio::looks_like_xml(path) ? read_vtu(path, r) : read_vtk_legacy(path, r);
   }
   throw InputError(fmt::format(

@@ -81,6 +81,8 @@ TetMesh read_tetgen(const std::filesystem::path& path, MeshLoadReport& report) {
     const std::string text = read_file(node_path);
     LineCursor cur(text);
     const Header h = read_header(node_src, cur, 2);
+    check_count(h.v[0], text.size(), 1, fmt::format("{}:{}", node_src, h.line),
+                fmt::format("the number of points {}", h.v[0]));
     if (h.v[1] != 3)
       fail(fmt::format("{}:{}: dimension is {}, expected 3", node_src, h.line, h.v[1]));
     std::vector<std::string_view> tok;
@@ -118,6 +120,8 @@ TetMesh read_tetgen(const std::filesystem::path& path, MeshLoadReport& report) {
     const std::string text = read_file(ele_path);
     LineCursor cur(text);
     const Header h = read_header(ele_src, cur, 2);
+    check_count(h.v[0], text.size(), 1, fmt::format("{}:{}", ele_src, h.line),
+                fmt::format("the number of tetrahedra {}", h.v[0]));
     const long long per = h.v[1];
     if (per != 4 && per != 10)
       fail(fmt::format("{}:{}: {} nodes per tetrahedron, expected 4 or 10", ele_src, h.line, per));

@@ -117,6 +117,8 @@ class VtkReader {
     const std::string_view tok = word(what);
     long long n = 0;
     if (!parse_int(tok, n) || n < 0) error(fmt::format("expected {}, found '{}'", what, tok.substr(0, 40)));
+    // Every counted item is at least one token of the (ASCII) file: check before using it.
+    check_count(n, text_.size(), 1, fmt::format("{}:{}", src_, tok_line_), fmt::format("{} {}", what, n));
     return n;
   }
 
@@ -215,6 +217,9 @@ class VtkReader {
       word("the array name");
       const long long comps = count("the number of components");
       const long long tuples = count("the number of tuples");
+      if (comps > 0 && tuples > count_limit(text_.size(), 1) / comps)  // the product overflowed to 0 values
+        error(fmt::format("a FIELD array of {} components x {} tuples is more than the file ({} bytes) can hold",
+                          comps, tuples, text_.size()));
       word("the array data type");
       std::string_view tok;
       for (long long i = 0; i < comps * tuples; ++i)

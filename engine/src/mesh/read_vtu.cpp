@@ -241,7 +241,14 @@ class VtuReader {
     long long n = 0;
     if (!v) error(node, fmt::format("<{}> has no {} attribute", node.name, key));
     if (!parse_int(*v, n) || n < 0) error(node, fmt::format("{}=\"{}\" is not a count", key, *v));
+    check_file_count(node, n, fmt::format("{}=\"{}\"", key, *v));
     return n;
+  }
+
+  // Values the file can hold at most: a byte each, zlib-compressed up to 1032:1 (check_count).
+  long long per_byte() const { return zlib_ ? 1100 : 1; }
+  void check_file_count(const XmlNode& at, long long n, const std::string& what) const {
+    check_count(n, text_.size(), per_byte(), fmt::format("{}:{}", src_, line_of(text_, at.offset)), what);
   }
 
   const XmlNode& array_named(const XmlNode& cells, const char* name) const {
@@ -317,14 +324,21 @@ class VtuReader {
       if (da.name != "DataArray" || !da.attr("Name")) continue;
       const std::string name = *da.attr("Name");
       long long nc = 1;
-      if (const auto* c = da.attr("NumberOfComponents"); c && (!parse_int(*c, nc) || nc < 1)) nc = -1;
+      const std::string* components = da.attr("NumberOfComponents");
+      if (components && (!parse_int(*components, nc) || nc < 1)) nc = -1;
       const bool first_piece = tuples ? earlier == 0 : true;
       auto it = into.find(name);
       if (!first_piece && it == into.end()) continue;  // absent from an earlier piece
       try {
         if (nc < 1) error(da, fmt::format("DataArray \"{}\": bad NumberOfComponents", name));
+        if (components) check_file_count(da, nc, fmt::format("NumberOfComponents=\"{}\"", *components));
         std::optional<long long> expected;
-        if (tuples) expected = *tuples * nc;
+        if (tuples) {  // both checked against the file, but their product may still be too large
+          if (*tuples > count_limit(text_.size(), per_byte()) / nc)
+            error(da, fmt::format("DataArray \"{}\": {} tuples of {} components are more than the file ({} bytes) "
+                                  "can hold", name, *tuples, nc, text_.size()));
+          expected = *tuples * nc;
+        }
         std::vector<double> v = read_array<double>(da, name.c_str(), expected);
         if (it == into.end()) {
           into[name] = VtuArray{static_cast<int>(nc), std::move(v)};

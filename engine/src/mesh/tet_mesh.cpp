@@ -43,11 +43,8 @@ void finalize_tet_mesh_named(TetMesh& mesh, const std::string& source, MeshLoadR
     fail(fmt::format("{}: the mesh has no tetrahedra ({} other cells skipped)", source,
                      report.skipped_cells));
 
-  // Indices in range and four distinct corners; bounding box of the used nodes.
+  // Indices in range and four distinct corners.
   std::vector<char> used(n, 0);
-  Vec3d lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
-           std::numeric_limits<double>::infinity()};
-  Vec3d hi{-lo[0], -lo[1], -lo[2]};
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     const Tet& tet = mesh.tets[t];
     for (int k = 0; k < 4; ++k) {
@@ -61,20 +58,22 @@ void finalize_tet_mesh_named(TetMesh& mesh, const std::string& source, MeshLoadR
       used[tet[k]] = 1;
     }
   }
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!used[i]) continue;
-    const Vec3d p = mesh.point(i);
-    for (int c = 0; c < 3; ++c) lo[c] = std::min(lo[c], p[c]), hi[c] = std::max(hi[c], p[c]);
-  }
-  const double diag = std::sqrt((hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
-                                (hi[2] - lo[2]) * (hi[2] - lo[2]));
-  const double tolerance = 1e-12 * diag * diag * diag;  // m^3
-
-  // Degenerate tets are errors; inverted ones are turned over by swapping two corners.
+  // Degenerate tets are errors; inverted ones are turned over by swapping two corners. A tet is
+  // degenerate when |V| <= 1e-12 L^3, L its longest edge: flat to within 1e-12 of its own size
+  // (a regular tet has V = 0.118 L^3; the rounding of the volume is about 1e-16 L^3). Its own
+  // size, not the mesh's: a threshold from the bounding box refused a valid 10 m x 1 mm x 1 mm bar
+  // and let one far-away node make healthy small tets "degenerate".
   for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
     Tet& tet = mesh.tets[t];
-    const double v = signed_tet_volume(mesh.point(tet[0]), mesh.point(tet[1]),
-                                       mesh.point(tet[2]), mesh.point(tet[3]));
+    const Vec3d p[4] = {mesh.point(tet[0]), mesh.point(tet[1]), mesh.point(tet[2]), mesh.point(tet[3])};
+    double longest2 = 0;  // m^2
+    for (int a = 0; a < 4; ++a)
+      for (int b = a + 1; b < 4; ++b) {
+        const double dx = p[b][0] - p[a][0], dy = p[b][1] - p[a][1], dz = p[b][2] - p[a][2];
+        longest2 = std::max(longest2, dx * dx + dy * dy + dz * dz);
+      }
+    const double tolerance = 1e-12 * longest2 * std::sqrt(longest2);  // m^3
+    const double v = signed_tet_volume(p[0], p[1], p[2], p[3]);
     if (!(std::abs(v) > tolerance))
       fail(fmt::format("{}{}: degenerate tetrahedron (volume {:g})", source, where(t),
                        v == 0.0 ? 0.0 : v));

@@ -16,6 +16,7 @@
 #include <sstream>
 
 #include "pliant/error.hpp"
+#include "pliant/input_file.hpp"
 #include "pliant/scene.hpp"
 #include "scene_detail.hpp"
 
@@ -196,7 +197,11 @@ class Reader {
     fs::path abs = fs::absolute(p, ec);
     p = (ec ? p : abs).lexically_normal();
     if (!fs::exists(p, ec)) fail(path, fmt::format("file not found: {}", p.string()));
-    if (!fs::is_regular_file(p, ec)) fail(path, fmt::format("not a regular file: {}", p.string()));
+    try {
+      check_input_file(p, "file");  // a regular file (a FIFO or a device would hang the reader)
+    } catch (const InputError& e) {
+      fail(path, e.what());
+    }
     return p;
   }
 
@@ -567,16 +572,8 @@ SceneDef parse_scene(std::string_view json_text, const std::string& source,
 
 SceneDef load_scene_file(const std::filesystem::path& path) {
   const std::string source = path.string();
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw InputError(source + ": is a folder, not a scene file");
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(fmt::format("{}: cannot open scene file{}", source,
-                                 fs::exists(path, ec) ? "" : " (no such file)"));
-  std::ostringstream text;
-  text << in.rdbuf();
-  if (in.bad()) throw InputError(source + ": cannot read scene file");
-  SceneDef s = parse_scene(text.str(), source, path.parent_path());
+  const std::string text = read_input_file(path, "scene file");  // regular files only
+  SceneDef s = parse_scene(text, source, path.parent_path());
   s.source = path;
   return s;
 }

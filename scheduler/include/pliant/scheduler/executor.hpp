@@ -13,13 +13,14 @@ namespace pliant {
 
 class Executor {
  public:
-  // threads <= 0: as many as the process may use (TBB's default concurrency).
+  // threads <= 0: as many as the process may use (default_threads()). More than that is clamped
+  // to it: TBB would not run more at once anyway, and threads() must say what is used.
   explicit Executor(int threads);
   ~Executor();
   Executor(const Executor&) = delete;
   Executor& operator=(const Executor&) = delete;
 
-  int threads() const { return threads_; }
+  int threads() const { return threads_; }  // the number used (after clamping)
 
   // Calls body(Range) over [0, n) in chunks of about `grain` items, possibly in parallel.
   template <class Body>
@@ -51,6 +52,7 @@ class Executor {
   };
   bool run_segments_all(const PredicateSegment* segments, std::size_t count);
 
+  // The cores this process may use (TBB's default concurrency: the CPU affinity mask, cgroups).
   static int default_threads();
 
  private:
