@@ -7,7 +7,7 @@ packages=(
   libeigen3-dev libtbb-dev libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
-  libosmesa6-dev libpng-dev
+  libosmesa6-dev libpng-dev libembree-dev
 )
 missing=()
 for p in "${packages[@]}"; do

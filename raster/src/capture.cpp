@@ -322,6 +322,12 @@ Frame capture(const World& world, Field field, CaptureCache* cache) {
   for (std::size_t p = 0; p < world.probe_count(); ++p)
     f.probes.push_back({world.probe_name(int(p)), world.probe_position(int(p))});
   for (const ObstacleDef& o : world.obstacles()) f.obstacles.push_back({o.point, o.normal});
+  for (std::size_t t = 0; t < world.tool_count(); ++t) {
+    ToolMark m;
+    tool_axis(world.tool_def(ToolId(t)).shape, world.tool_pose(ToolId(t)), m.a, m.b);
+    m.radius = world.tool_def(ToolId(t)).shape.radius;
+    f.tools.push_back(m);
+  }
   return f;
 }
 

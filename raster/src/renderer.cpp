@@ -321,6 +321,50 @@ struct Renderer::Impl {
     glDisable(GL_LIGHTING);
   }
 
+  // Tools as lit grey capsules (a sphere is one of zero length): a cylinder between the axis
+  // ends and a hemisphere at each, from a 24 x 12 grid of directions.
+  void draw_tool(const ToolMark& t) {
+    glEnable(GL_LIGHTING);
+    const GLfloat grey[] = {0.55f, 0.57f, 0.6f, 1.f}, spec[] = {0.8f, 0.8f, 0.8f, 1.f};
+    glMaterialfv(GL_FRONT_AND_BACK, GL_AMBIENT, grey);
+    glMaterialfv(GL_FRONT_AND_BACK, GL_DIFFUSE, grey);
+    glMaterialfv(GL_FRONT_AND_BACK, GL_SPECULAR, spec);
+    glMaterialf(GL_FRONT_AND_BACK, GL_SHININESS, 60.f);
+    // An orthonormal frame (u, v, w) with w along the axis (z for a sphere).
+    Vec3d w{t.b[0] - t.a[0], t.b[1] - t.a[1], t.b[2] - t.a[2]};
+    const double len = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+    w = len > 0 ? Vec3d{w[0] / len, w[1] / len, w[2] / len} : Vec3d{0, 0, 1};
+    const Vec3d h = std::abs(w[0]) < 0.9 ? Vec3d{1, 0, 0} : Vec3d{0, 1, 0};
+    Vec3d u{h[1] * w[2] - h[2] * w[1], h[2] * w[0] - h[0] * w[2], h[0] * w[1] - h[1] * w[0]};
+    const double un = std::sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    u = {u[0] / un, u[1] / un, u[2] / un};
+    const Vec3d v{w[1] * u[2] - w[2] * u[1], w[2] * u[0] - w[0] * u[2], w[0] * u[1] - w[1] * u[0]};
+    constexpr int kAround = 24, kUp = 12;  // kUp rows from the -w pole to the +w pole
+    auto vertex = [&](int i, int j, const Vec3d& centre) {
+      const double phi = 2 * M_PI * i / kAround, theta = M_PI * j / kUp - M_PI / 2;  // theta: latitude
+      const double c = std::cos(theta), s = std::sin(theta);
+      Vec3d n;
+      for (int k = 0; k < 3; ++k) n[std::size_t(k)] = c * (std::cos(phi) * u[std::size_t(k)] + std::sin(phi) * v[std::size_t(k)]) + s * w[std::size_t(k)];
+      glNormal3d(n[0], n[1], n[2]);
+      glVertex3d(centre[0] + t.radius * n[0], centre[1] + t.radius * n[1], centre[2] + t.radius * n[2]);
+    };
+    // Rows 0 .. kUp/2 around a (the lower cap), the cylinder from a's equator to b's, rows kUp/2 .. kUp around b.
+    for (int j = 0; j <= kUp; ++j) {
+      if (j == kUp / 2 && len == 0) continue;
+      const bool cylinder = j == kUp / 2;
+      const int j0 = cylinder ? j : (j < kUp / 2 ? j : j - 1), j1 = cylinder ? j : j0 + 1;
+      const Vec3d& c0 = (j <= kUp / 2) ? t.a : t.b;
+      const Vec3d& c1 = (j < kUp / 2) ? t.a : t.b;
+      glBegin(GL_QUAD_STRIP);
+      for (int i = 0; i <= kAround; ++i) {
+        vertex(i % kAround, j0, c0);
+        vertex(i % kAround, j1, c1);
+      }
+      glEnd();
+    }
+    glDisable(GL_LIGHTING);
+  }
+
   // Fixed and driven nodes as round points in a bright colour over a dark outline (a larger
   // point drawn first), so that they show on every colour of the map, dark purple to yellow,
   // and on the plain body colours. The colours are overlay.cpp's (the legend's).
@@ -392,6 +436,7 @@ Image Renderer::render(const Frame& frame, const RenderOptions& o, std::vector<s
   glPolygonOffset(1.f, 2.f);
   for (std::size_t b = 0; b < frame.bodies.size(); ++b) m.draw_body(frame.bodies[b], b, range, true);
   glDisable(GL_POLYGON_OFFSET_FILL);
+  for (const ToolMark& t : frame.tools) m.draw_tool(t);
   if (o.marks)
     for (const auto& body : frame.bodies) m.draw_marks(body, layout.text_scale);
 

@@ -28,6 +28,19 @@ Executor::Executor(int threads) {
 
 Executor::~Executor() = default;
 
+void Executor::run_isolated(void (*fn)(void*), void* ctx) {
+  // A library that runs its own TBB loops (Embree's BVH commit) runs them here: on this
+  // executor's threads, and isolated so that no task of ours is stolen into the middle of it.
+  // Single-threaded executors get a one-thread arena on first use (a library's loops would
+  // otherwise run on every core of the process).
+  if (!arena_) {
+    if (!serial_arena_) serial_arena_ = std::make_unique<Arena>(1);
+    serial_arena_->arena.execute([&] { tbb::this_task_arena::isolate([&] { fn(ctx); }); });
+    return;
+  }
+  arena_->arena.execute([&] { tbb::this_task_arena::isolate([&] { fn(ctx); }); });
+}
+
 void Executor::run(std::size_t n, std::size_t grain, Fn fn, const void* ctx) {
   if (n == 0) return;
   grain = std::max<std::size_t>(grain, 1);

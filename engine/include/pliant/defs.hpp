@@ -113,6 +113,29 @@ struct MultiresolutionDef {
   ActiveDef active;
 };
 
+// A rigid tool that touches bodies (thesis ch. 6; docs/tool.md): a sphere, or a capsule whose
+// axis is the tool's local z (the segment from -length/2 to +length/2, rounded by `radius`).
+// Its pose follows keyframes (position linear, orientation slerp; held after the last and before
+// the first) until a host sets it (World::set_tool_pose). Free nodes of the bodies it touches are
+// kept out of it; the force the bodies exert on it is read back (World::tool_reading, HapticLink).
+struct ToolShapeDef {
+  enum class Kind { sphere, capsule } kind = Kind::sphere;
+  double radius = 0.005;  // m, > 0
+  double length = 0;      // m, capsule only: distance between the centres of its two caps, > 0
+};
+using Quatd = std::array<double, 4>;  // unit quaternion (w, x, y, z): body of the tool -> world
+struct ToolKeyframeDef {
+  double time = 0;                 // s
+  Vec3d position{};                // m, world frame: the centre of the sphere / of the capsule's axis
+  Quatd orientation{1, 0, 0, 0};   // normalised when the tool is added
+};
+struct ToolDef {
+  std::string name = "tool";
+  ToolShapeDef shape;
+  std::vector<ToolKeyframeDef> keyframes;  // sorted by time, at least one (a scene's "csv" path is read into these)
+  std::vector<std::string> bodies;         // names of the bodies it touches; empty: every body
+};
+
 struct BodyDef {
   std::string name = "body";
   MeshSourceDef mesh;
@@ -187,6 +210,7 @@ struct SceneDef {
   WorldDef world;
   std::vector<BodyDef> bodies;
   std::vector<ProbeDef> probes;
+  std::vector<ToolDef> tools;
   OutputDef output;
   std::optional<CameraDef> camera;  // none: pictures frame the bodies automatically
   std::filesystem::path source;  // the scene file, for messages ("" when built in code)

@@ -80,9 +80,17 @@ struct RunSummary {
   double tick_tet_updates_mean = 0;
   std::size_t tick_tet_updates_max = 0;
   double tick_mean_us = 0, tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0;
+  // Tools (docs/tool.md), over the run's steps.
+  struct Tool {
+    std::string name;
+    double max_force = 0;        // N, largest |force| the bodies exerted on it
+    double max_penetration = 0;  // m, deepest triangle left inside it after a step
+    std::int64_t contact_steps = 0;  // steps that ended with a contact
+  };
+  std::vector<Tool> tools;
 };
 
-// A World holding the scene's bodies and probes (meshes built, regions resolved).
+// A World holding the scene's bodies, probes and tools (meshes built, regions resolved).
 World make_world(const SceneDef& scene, const RunOptions& options = {});
 
 // Runs the scene for its duration, writing DIR/summary.json, DIR/probes.csv and, if asked,

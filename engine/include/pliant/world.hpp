@@ -22,9 +22,11 @@
 
 #include "pliant/defs.hpp"
 #include "pliant/error.hpp"
+#include "pliant/haptic_link.hpp"
 #include "pliant/level.hpp"
 #include "pliant/tet_mesh.hpp"
 #include "pliant/tick_stats.hpp"
+#include "pliant/tool.hpp"
 
 namespace pliant {
 
@@ -42,6 +44,7 @@ struct LevelInfo {
 };
 
 using BodyId = int;
+using ToolId = int;
 
 // Energies of the current state, all at the time of the positions x.
 // The integrator (symplectic Euler: v += h a(x, v), then x += h v) is the leapfrog scheme: the
@@ -148,6 +151,23 @@ class World {
   // The host takes over prescribed motion `motion` of a body: from the next step on, its nodes
   // sit at rest position + offset (m), and their velocity is the offset's rate of change.
   void set_motion_offset(BodyId body, int motion, const Vec3d& offset);
+
+  // ---- tools (docs/tool.md) ----
+  // Adds a rigid tool touching the bodies named in def.bodies (all bodies if empty), which must
+  // already be in the world: every level of each gets a collision surface (an Embree BVH over its
+  // boundary triangles). Throws InputError naming the field for bad shapes, keyframes or names.
+  ToolId add_tool(const ToolDef& def);
+  std::size_t tool_count() const;
+  const ToolDef& tool_def(ToolId tool) const;
+  // The host takes over the tool's pose (world frame) from the next step on; the tool moves from
+  // where it was to there over that step (contact sees the sweep: nothing tunnels through).
+  void set_tool_pose(ToolId tool, const ToolPose& pose);
+  ToolPose tool_pose(ToolId tool) const;  // at time()
+  // What the bodies did to the tool in the last step: force, contacts, held nodes, penetration.
+  ToolReading tool_reading(ToolId tool) const;
+  // The lock-free exchange a haptic thread reads the tool's force from (see haptic_link.hpp);
+  // step() publishes every reading into it. Valid as long as the world.
+  const HapticLink& haptic_link(ToolId tool) const;
 
   std::size_t probe_count() const;
   const std::string& probe_name(int probe) const;

@@ -24,6 +24,7 @@ World make_world(const SceneDef& scene, const RunOptions& options) {
   World world(wd);
   for (const BodyDef& b : scene.bodies) world.add_body(b);
   for (const ProbeDef& p : scene.probes) world.add_probe(p);
+  for (const ToolDef& t : scene.tools) world.add_tool(t);
   return world;
 }
 
@@ -45,6 +46,34 @@ class ProbeWriter {
     for (std::size_t p = 0; p < w.probe_count(); ++p) {
       const Vec3d x = w.probe_position(int(p));
       fmt::print(file_, "{:.9g},{},{:.12g},{:.12g},{:.12g}\n", w.time(), w.probe_name(int(p)), x[0], x[1], x[2]);
+    }
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+};
+
+// tools.csv: per tool and row, its pose, the force the bodies exert on it (N, world frame) and
+// its contacts, at the probes' rate.
+class ToolWriter {
+ public:
+  ToolWriter(const fs::path& path, bool enabled) {
+    if (!enabled) return;
+    file_ = std::fopen(path.string().c_str(), "w");
+    if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
+    std::fputs("time,tool,x,y,z,fx,fy,fz,contacts,max_penetration\n", file_);
+  }
+  ~ToolWriter() {
+    if (file_) std::fclose(file_);
+  }
+  void write(const World& w) {
+    if (!file_) return;
+    for (std::size_t t = 0; t < w.tool_count(); ++t) {
+      const ToolPose p = w.tool_pose(ToolId(t));
+      const ToolReading r = w.tool_reading(ToolId(t));
+      fmt::print(file_, "{:.9g},{},{:.12g},{:.12g},{:.12g},{:.9g},{:.9g},{:.9g},{},{:.6g}\n", w.time(),
+                 w.tool_def(ToolId(t)).name, p.position[0], p.position[1], p.position[2], r.force[0], r.force[1],
+                 r.force[2], r.contacts, r.max_penetration);
     }
   }
 
@@ -150,6 +179,13 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   j["tick_p50_us"] = s.tick_p50_us;
   j["tick_p99_us"] = s.tick_p99_us;
   j["tick_max_us"] = s.tick_max_us;
+  if (!s.tools.empty()) {
+    nlohmann::ordered_json tools = nlohmann::ordered_json::array();
+    for (const auto& t : s.tools)
+      tools.push_back({{"name", t.name}, {"max_force", t.max_force}, {"max_penetration", t.max_penetration},
+                       {"contact_steps", t.contact_steps}});
+    j["tools"] = tools;
+  }
   j["files"] = s.files;
   if (!s.notes.empty()) j["notes"] = s.notes;
   std::ofstream out(path);
@@ -223,8 +259,13 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
 
   ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
+  const bool tools_csv = options.write_files && world.tool_count() > 0;
+  ToolWriter tools(options.out_dir / "tools.csv", tools_csv);
+  if (tools_csv) s.files.push_back("tools.csv");
+  for (std::size_t t = 0; t < world.tool_count(); ++t) s.tools.push_back({world.tool_def(ToolId(t)).name});
   VtuSeries vtu(options.out_dir, options.write_files && scene.output.vtu_every > 0);
   probes.write(world);
+  tools.write(world);
   vtu.write(world, s.files);
   const bool frames = options.on_frame && options.frame_every > 0;
   if (frames) options.on_frame(world);
@@ -239,8 +280,16 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     for (std::int64_t i = 0; i < total_steps; ++i) {
       world.step();
       clock.stepped(world.substeps());
+      for (std::size_t t = 0; t < s.tools.size(); ++t) {
+        const ToolReading r = world.tool_reading(ToolId(t));
+        RunSummary::Tool& st = s.tools[t];
+        st.max_force = std::max(st.max_force, std::sqrt(r.force[0] * r.force[0] + r.force[1] * r.force[1] + r.force[2] * r.force[2]));
+        st.max_penetration = std::max(st.max_penetration, r.max_penetration);
+        st.contact_steps += r.contacts > 0;
+      }
       if (world.time() + eps >= next_probe) {  // probe_every = 0: every step
         probes.write(world);
+        tools.write(world);
         if (scene.output.probe_every > 0) next_probe = next_due(scene.output.probe_every, world.time(), eps);
       }
       if (vtu.enabled() && world.time() + eps >= next_vtu) {

@@ -252,6 +252,36 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
   }
 
+  // Tools (collision/tool_contact.hpp): free surface nodes of the levels whose window ends that
+  // the tool reached (or swept through) over the window go onto its surface; their forces are
+  // its reading. After the divergence check: Embree must never see a non-finite triangle.
+  for (ToolState<T>& tool : tools) {
+    const ToolPose to = tool.pose_at(t + h);
+    bool any = false;
+    for (LevelContact<T>& lc : tool.levels) {
+      const std::size_t j = job_of_body_[std::size_t(lc.body)] + std::size_t(lc.level);
+      if (!due_[j].window_end) continue;
+      Level<T>& L = level_of(j);
+      std::string error;
+      if (!resolve_tool_contact(lc, L, tool.def.shape, to, bodies[std::size_t(lc.body)].origin, L.window_dt, exec, error)) {
+        where = fmt::format("tool '{}' against body '{}', level {}, step {}: {}", tool.def.name,
+                            bodies[std::size_t(lc.body)].def.name, lc.level, step_index, error);
+        return false;
+      }
+      any = true;
+    }
+    if (!any) continue;
+    ToolReading& r = tool.reading;
+    r = ToolReading{};
+    r.time = t + h;
+    for (const LevelContact<T>& lc : tool.levels) {
+      for (int k = 0; k < 3; ++k) r.force[std::size_t(k)] += lc.force[std::size_t(k)];
+      r.contacts += lc.contacts;
+      r.held_nodes += int(lc.held_vertices.size());
+      r.max_penetration = std::max(r.max_penetration, lc.max_penetration);
+    }
+  }
+
   // Prescribed motion of the levels that integrated: nodes at rest + offset(end of window),
   // velocity = the offset's change over the window.
   for (std::size_t j = 0; j < jobs; ++j) {

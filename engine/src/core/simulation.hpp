@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -14,6 +15,8 @@
 #include "pliant/kernels/multilevel_passes.hpp"
 #include "pliant/scheduler/executor.hpp"
 #include "pliant/scheduler/level_schedule.hpp"
+#include "pliant/tool.hpp"
+#include "../collision/tool_contact.hpp"
 
 namespace pliant::detail {
 
@@ -38,6 +41,18 @@ struct SimBody {
   std::vector<MotionState> motions;
   // Per level: the factor its elastic moduli were scaled by (multiresolution calibration; 1 = none).
   std::vector<double> stiffness_factors;
+};
+
+// A tool as the step sees it: its pose source and its contact with every level of every body it
+// touches (collision/tool_contact.hpp).
+template <class T>
+struct ToolState {
+  ToolDef def;
+  bool host_driven = false;   // World::set_tool_pose took over from the keyframes
+  ToolPose host_pose;
+  std::vector<LevelContact<T>> levels;
+  ToolReading reading;        // sums over its levels, from their last windows
+  ToolPose pose_at(double t) const { return host_driven ? host_pose : tool_pose_at(def.keyframes, t); }
 };
 
 struct ProbeState {
@@ -158,6 +173,8 @@ class Simulation {
   T gravity[3] = {0, 0, 0};
   ScheduleKind schedule = ScheduleKind::staggered;
   std::vector<ObstacleDef> obstacles;  // static half-spaces, unit normals (World checks them)
+  std::unique_ptr<EmbreeDevice> embree;  // made with the first tool; before `tools`: outlives their BVHs
+  std::vector<ToolState<T>> tools;
 
   // Builds the jobs (one per level of every body), their periods for fine ticks of `tick_dt` (s)
   // (levels of a multiresolution body: level_period of their stable step; single-level bodies: 1)

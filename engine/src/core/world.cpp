@@ -3,6 +3,7 @@
 // offers the zero-copy and measuring accessors hosts and the runner use.
 #include "pliant/world.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstring>
@@ -61,6 +62,7 @@ struct World::Impl {
   double stiffness_ratio = 1;  // last measured (adapt_substeps)
   TickStats ticks;
   double max_stiffness_ratio = 1;
+  std::vector<std::unique_ptr<HapticLink>> haptic;  // one per tool (stable addresses for host threads)
 
 
   explicit Impl(const WorldDef& d) : def(d), exec(d.threads) {
@@ -405,6 +407,101 @@ double tet_weights(const Level<T>& L, std::size_t t, const Vec3d& p, double w[4]
 
 }  // namespace
 
+namespace {
+
+bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
+
+// Checks a pose (finite position, finite non-zero quaternion) and returns it with a unit quaternion.
+ToolPose checked_pose(const ToolPose& p, const std::string& what) {
+  const Quatd& q = p.orientation;
+  const double n = std::sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3]);
+  if (!finite3(p.position)) throw InputError(fmt::format("{}: position must be finite", what));
+  if (!std::isfinite(n) || !(n > 1e-12))
+    throw InputError(fmt::format("{}: orientation must be a non-zero quaternion [w, x, y, z] of finite numbers", what));
+  return {p.position, {q[0] / n, q[1] / n, q[2] / n, q[3] / n}};
+}
+
+}  // namespace
+
+ToolId World::add_tool(const ToolDef& in) {
+  ToolDef def = in;
+  const std::string who = fmt::format("tool '{}'", def.name);
+  const ToolShapeDef& sh = def.shape;
+  if (!std::isfinite(sh.radius) || !(sh.radius > 0))
+    throw InputError(fmt::format("{}: shape radius must be a positive length (m), got {}", who, sh.radius));
+  if (sh.kind == ToolShapeDef::Kind::capsule && (!std::isfinite(sh.length) || !(sh.length > 0)))
+    throw InputError(fmt::format("{}: a capsule's length must be positive (m), got {}", who, sh.length));
+  if (def.keyframes.empty()) throw InputError(fmt::format("{}: needs at least one keyframe (time, position)", who));
+  for (std::size_t i = 0; i < def.keyframes.size(); ++i) {
+    ToolKeyframeDef& k = def.keyframes[i];
+    const std::string at = fmt::format("{}: keyframes[{}]", who, i);
+    if (!std::isfinite(k.time)) throw InputError(fmt::format("{}: time must be finite", at));
+    if (i > 0 && !(k.time > def.keyframes[i - 1].time))
+      throw InputError(fmt::format("{}: times must increase (got {} after {})", at, k.time, def.keyframes[i - 1].time));
+    const ToolPose p = checked_pose({k.position, k.orientation}, at);
+    k.orientation = p.orientation;
+  }
+  std::vector<BodyId> touched;
+  if (def.bodies.empty()) {
+    for (std::size_t b = 0; b < body_count(); ++b) touched.push_back(BodyId(b));
+  } else {
+    for (const std::string& name : def.bodies) {
+      const BodyId b = find_body(name);
+      if (b < 0) throw InputError(fmt::format("{}: bodies names '{}', which is not a body of the world (add tools after their bodies)", who, name));
+      if (std::find(touched.begin(), touched.end(), b) == touched.end()) touched.push_back(b);
+    }
+  }
+  Impl& w = *impl_;
+  return w.visit([&](auto& s) {
+    using T = typename std::remove_reference_t<decltype(s.bodies[0].levels[0].x[0][0])>;
+    if (!s.embree) s.embree = std::make_unique<detail::EmbreeDevice>();
+    detail::ToolState<T> tool;
+    tool.def = def;
+    const ToolPose now = tool.pose_at(w.time);
+    for (BodyId b : touched) {
+      auto& body = s.bodies[std::size_t(b)];
+      for (std::size_t l = 0; l < body.levels.size(); ++l)
+        tool.levels.push_back(detail::make_level_contact(*s.embree, body.levels[l], int(b), int(l), w.exec, now));
+    }
+    s.tools.push_back(std::move(tool));
+    w.haptic.push_back(std::make_unique<HapticLink>());
+    return ToolId(s.tools.size() - 1);
+  });
+}
+
+std::size_t World::tool_count() const {
+  return impl_->visit([](auto& s) { return s.tools.size(); });
+}
+namespace {
+template <class S>
+auto& tool_of(S& s, ToolId id) {
+  if (id < 0 || std::size_t(id) >= s.tools.size())
+    throw InputError(fmt::format("no tool {} (the world has {})", id, s.tools.size()));
+  return s.tools[std::size_t(id)];
+}
+}  // namespace
+const ToolDef& World::tool_def(ToolId id) const {
+  return impl_->visit([&](auto& s) -> const ToolDef& { return tool_of(s, id).def; });
+}
+void World::set_tool_pose(ToolId id, const ToolPose& pose) {
+  const ToolPose p = checked_pose(pose, fmt::format("set_tool_pose of tool {}", id));
+  impl_->visit([&](auto& s) {
+    auto& t = tool_of(s, id);
+    t.host_driven = true;
+    t.host_pose = p;
+  });
+}
+ToolPose World::tool_pose(ToolId id) const {
+  return impl_->visit([&](auto& s) { return tool_of(s, id).pose_at(impl_->time); });
+}
+ToolReading World::tool_reading(ToolId id) const {
+  return impl_->visit([&](auto& s) { return tool_of(s, id).reading; });
+}
+const HapticLink& World::haptic_link(ToolId id) const {
+  impl_->visit([&](auto& s) { (void)tool_of(s, id); });
+  return *impl_->haptic[std::size_t(id)];
+}
+
 int World::add_probe(const ProbeDef& def) {
   const BodyId b = find_body(def.body);
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
@@ -505,6 +602,10 @@ void World::step() {
   }
   ++w.steps;
   w.time = w.time + w.dt;
+  if (!w.haptic.empty())
+    w.visit([&](auto& s) {
+      for (std::size_t i = 0; i < s.tools.size(); ++i) w.haptic[i]->publish(w.time, s.tools[i].reading.force);
+    });
 }
 
 double World::time() const { return impl_->time; }

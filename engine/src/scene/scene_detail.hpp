@@ -16,7 +16,7 @@ using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
                                                   "time_step", "bodies", "probes",    "output",
-                                                  "camera",    "schedule",  "obstacles"};
+                                                  "camera",    "schedule",  "obstacles", "tools"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution"};
@@ -39,6 +39,12 @@ inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every", "
 inline constexpr std::string_view kCameraKeys[] = {"position", "target", "up", "fov_deg"};
 inline constexpr std::string_view kObstacleKeys[] = {"plane", "friction"};
 inline constexpr std::string_view kPlaneKeys[] = {"point", "normal"};
+inline constexpr std::string_view kToolKeys[] = {"name", "shape", "path", "bodies"};
+inline constexpr std::string_view kToolShapeKeys[] = {"sphere", "capsule"};
+inline constexpr std::string_view kToolSphereKeys[] = {"radius"};
+inline constexpr std::string_view kToolCapsuleKeys[] = {"radius", "length"};
+inline constexpr std::string_view kToolPathKeys[] = {"keyframes", "csv"};
+inline constexpr std::string_view kToolKeyframeKeys[] = {"time", "position", "orientation"};
 
 // Keys starting with "_" or "//" are comments, ignored everywhere.
 inline bool is_comment_key(std::string_view k) {

@@ -9,6 +9,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <map>
@@ -217,6 +218,8 @@ class Reader {
   ProbeDef probe(const Json& j, const std::string& path, std::size_t index) const;
   CameraDef camera(const Json& j, const std::string& path) const;
   ObstacleDef obstacle(const Json& j, const std::string& path) const;
+  ToolDef tool(const Json& j, const std::string& path, std::size_t index) const;
+  std::vector<ToolKeyframeDef> tool_csv(const fs::path& file, const std::string& path) const;
 
   std::string source_;
   fs::path base_dir_;
@@ -267,6 +270,25 @@ SceneDef Reader::scene(const Json& doc) const {
         fail(field(p, "name"), fmt::format("duplicate probe name \"{}\" (also probes[{}])",
                                            it->first, it->second));
       s.probes.push_back(std::move(pr));
+    }
+  });
+
+  optional(doc, "", "tools", [&](const auto& v, const auto& path) {
+    std::map<std::string, std::size_t> seen;
+    for (std::size_t i = 0; i < array(v, path).size(); ++i) {
+      const std::string p = element(path, i);
+      ToolDef t = tool(v[i], p, i);
+      for (std::size_t b = 0; b < t.bodies.size(); ++b)
+        if (!body_index.count(t.bodies[b])) {
+          std::vector<std::string> names;
+          for (const auto& body : s.bodies) names.push_back(body.name);
+          fail(element(field(p, "bodies"), b),
+               fmt::format("no body named \"{}\"; bodies: {}", t.bodies[b], fmt::join(names, ", ")));
+        }
+      auto [it, fresh] = seen.emplace(t.name, i);
+      if (!fresh)
+        fail(field(p, "name"), fmt::format("duplicate tool name \"{}\" (also tools[{}])", it->first, it->second));
+      s.tools.push_back(std::move(t));
     }
   });
 
@@ -547,6 +569,130 @@ NodalLoadDef Reader::load(const Json& j, const std::string& path) const {
   l.region = region(required(j, path, "region"), field(path, "region"));
   l.total_force = vec3(required(j, path, "force"), field(path, "force"));
   return l;
+}
+
+ToolDef Reader::tool(const Json& j, const std::string& path, std::size_t index) const {
+  object(j, path, kToolKeys);
+  ToolDef t;
+  t.name = fmt::format("tool{}", index);
+  optional(j, path, "name", [&](const auto& v, const auto& q) { t.name = name(v, q); });
+  const std::string sp = field(path, "shape");
+  const Json& shape = required(j, path, "shape");
+  object(shape, sp, kToolShapeKeys);
+  if (shape.size() != 1) fail(sp, "expected exactly one of \"sphere\" or \"capsule\"");
+  if (shape.contains("sphere")) {
+    const std::string p = field(sp, "sphere");
+    object(shape["sphere"], p, kToolSphereKeys);
+    t.shape.kind = ToolShapeDef::Kind::sphere;
+    t.shape.radius = positive(required(shape["sphere"], p, "radius"), field(p, "radius"));
+  } else {
+    const std::string p = field(sp, "capsule");
+    object(shape["capsule"], p, kToolCapsuleKeys);
+    t.shape.kind = ToolShapeDef::Kind::capsule;
+    t.shape.radius = positive(required(shape["capsule"], p, "radius"), field(p, "radius"));
+    t.shape.length = positive(required(shape["capsule"], p, "length"), field(p, "length"));
+  }
+  const std::string pp = field(path, "path");
+  const Json& motion = required(j, path, "path");
+  object(motion, pp, kToolPathKeys);
+  if (motion.size() != 1) fail(pp, "expected exactly one of \"keyframes\" or \"csv\"");
+  if (motion.contains("csv")) {
+    t.keyframes = tool_csv(existing_file(motion["csv"], field(pp, "csv"), {".csv"}), field(pp, "csv"));
+  } else {
+    const std::string kp = field(pp, "keyframes");
+    const Json& keys = array(motion["keyframes"], kp);
+    if (keys.empty()) fail(kp, "must list at least one keyframe");
+    for (std::size_t i = 0; i < keys.size(); ++i) {
+      const std::string p = element(kp, i);
+      object(keys[i], p, kToolKeyframeKeys);
+      ToolKeyframeDef k;
+      k.time = number(required(keys[i], p, "time"), field(p, "time"));
+      k.position = vec3(required(keys[i], p, "position"), field(p, "position"));
+      optional(keys[i], p, "orientation", [&](const auto& v, const auto& q) {
+        if (!v.is_array() || v.size() != 4) fail(q, "expected a quaternion [w, x, y, z], got " + describe(v));
+        double n = 0;
+        for (std::size_t c = 0; c < 4; ++c) {
+          k.orientation[c] = number(v[c], element(q, c));
+          n += k.orientation[c] * k.orientation[c];
+        }
+        if (!(n > 1e-24)) fail(q, "must not be the zero quaternion");
+      });
+      if (i > 0 && !(k.time > t.keyframes.back().time))
+        fail(field(p, "time"), fmt::format("keyframe times must increase; {} comes after {}", k.time, t.keyframes.back().time));
+      t.keyframes.push_back(k);
+    }
+  }
+  optional(j, path, "bodies", [&](const auto& v, const auto& q) {
+    for (std::size_t i = 0; i < array(v, q).size(); ++i) t.bodies.push_back(name(v[i], element(q, i)));
+  });
+  return t;
+}
+
+// A tool path as CSV: a header naming the columns (time,x,y,z and optionally qw,qx,qy,qz, in any
+// order), then one row per keyframe; times increasing. Errors name the file and line.
+std::vector<ToolKeyframeDef> Reader::tool_csv(const fs::path& file, const std::string& path) const {
+  const std::string text = read_input_file(file, "tool path");
+  std::vector<ToolKeyframeDef> keys;
+  std::vector<std::string> header;
+  std::size_t line_no = 0, pos = 0;
+  auto where = [&](std::size_t line) { return fmt::format("{}:{}", file.string(), line); };
+  int col[8];
+  const char* names[8] = {"time", "x", "y", "z", "qw", "qx", "qy", "qz"};
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string::npos) end = text.size();
+    std::string line = text.substr(pos, end - pos);
+    pos = end + 1;
+    ++line_no;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty() || line[0] == '#') continue;
+    std::vector<std::string> cells;
+    std::size_t a = 0;
+    for (;;) {
+      const std::size_t b = line.find(',', a);
+      std::string c = line.substr(a, b == std::string::npos ? std::string::npos : b - a);
+      c.erase(0, c.find_first_not_of(" \t"));
+      c.erase(c.find_last_not_of(" \t") + 1);
+      cells.push_back(c);
+      if (b == std::string::npos) break;
+      a = b + 1;
+    }
+    if (header.empty()) {
+      header = cells;
+      for (int k = 0; k < 8; ++k) {
+        const auto it = std::find(header.begin(), header.end(), names[k]);
+        col[k] = it == header.end() ? -1 : int(it - header.begin());
+      }
+      for (int k = 0; k < 4; ++k)
+        if (col[k] < 0) fail(path, fmt::format("{}: the header must name the columns time,x,y,z (and optionally qw,qx,qy,qz); no \"{}\"", where(line_no), names[k]));
+      const bool any_q = col[4] >= 0 || col[5] >= 0 || col[6] >= 0 || col[7] >= 0;
+      const bool all_q = col[4] >= 0 && col[5] >= 0 && col[6] >= 0 && col[7] >= 0;
+      if (any_q && !all_q) fail(path, fmt::format("{}: an orientation needs all of qw,qx,qy,qz", where(line_no)));
+      continue;
+    }
+    if (cells.size() != header.size())
+      fail(path, fmt::format("{}: {} values where the header has {} columns", where(line_no), cells.size(), header.size()));
+    double v[8] = {0, 0, 0, 0, 1, 0, 0, 0};
+    for (int k = 0; k < 8; ++k) {
+      if (col[k] < 0) continue;
+      const std::string& c = cells[std::size_t(col[k])];
+      char* stop = nullptr;
+      v[k] = std::strtod(c.c_str(), &stop);
+      if (c.empty() || *stop != '\0' || !std::isfinite(v[k]))
+        fail(path, fmt::format("{}: column {} is \"{}\", not a finite number", where(line_no), names[k], c));
+    }
+    ToolKeyframeDef k;
+    k.time = v[0];
+    k.position = {v[1], v[2], v[3]};
+    k.orientation = {v[4], v[5], v[6], v[7]};
+    if (!(v[4] * v[4] + v[5] * v[5] + v[6] * v[6] + v[7] * v[7] > 1e-24))
+      fail(path, fmt::format("{}: the orientation is the zero quaternion", where(line_no)));
+    if (!keys.empty() && !(k.time > keys.back().time))
+      fail(path, fmt::format("{}: times must increase ({} after {})", where(line_no), k.time, keys.back().time));
+    keys.push_back(k);
+  }
+  if (keys.empty()) fail(path, fmt::format("{}: no keyframe rows", file.string()));
+  return keys;
 }
 
 ProbeDef Reader::probe(const Json& j, const std::string& path, std::size_t index) const {

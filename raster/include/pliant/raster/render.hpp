@@ -58,6 +58,11 @@ struct ProbeMark {
 struct ObstacleMark {
   Vec3d point{}, normal{0, 0, 1};  // m; normal of unit length, out of the solid
 };
+// A tool (World tools, docs/tool.md): drawn as a shaded grey sphere or capsule.
+struct ToolMark {
+  Vec3d a{}, b{};     // m, the ends of its axis (equal for a sphere)
+  double radius = 0;  // m
+};
 struct Frame {
   double time = 0;           // s
   bool has_time = true;      // false: a state of unknown time (a mesh file)
@@ -65,6 +70,7 @@ struct Frame {
   std::vector<SurfaceBody> bodies;
   std::vector<ProbeMark> probes;
   std::vector<ObstacleMark> obstacles;  // drawn instead of the ground grid when there are any
+  std::vector<ToolMark> tools;
   std::size_t bytes() const;  // memory held by the frame's own arrays
 };
 

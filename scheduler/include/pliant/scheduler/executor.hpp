@@ -52,6 +52,10 @@ class Executor {
   };
   bool run_segments_all(const PredicateSegment* segments, std::size_t count);
 
+  // Calls fn(ctx) on this executor's threads, isolated: TBB loops that fn runs (a library using
+  // TBB, such as Embree's BVH commit) use at most threads() threads and never pick up other work.
+  void run_isolated(void (*fn)(void*), void* ctx);
+
   // The cores this process may use (TBB's default concurrency: the CPU affinity mask, cgroups).
   static int default_threads();
 
@@ -76,6 +80,7 @@ class Executor {
   struct Arena;
   int threads_ = 1;
   std::unique_ptr<Arena> arena_;  // null when single-threaded: loops run inline
+  std::unique_ptr<Arena> serial_arena_;  // one thread, made by run_isolated when arena_ is null
 };
 
 }  // namespace pliant

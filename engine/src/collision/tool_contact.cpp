@@ -1,0 +1,226 @@
+// The contact pass of a tool against a level (tool_contact.hpp). Detection: Embree's BVH gives
+// the triangles whose boxes meet a ball around everything the tool's axis swept over the window;
+// an exact distance test keeps those the tool's swept volume reaches (a sphere sweeps a capsule;
+// a capsule's axis sweeps the quadrilateral between its two positions, tested as two triangles).
+// Response (thesis ch. 6 §2.2): for each touched triangle, the point closest to the tool's axis
+// is carried onto the tool's surface by moving the free vertices with weights b_k (the point's
+// barycentric coordinates): dx_k = b_k d / sum_j b_j^2, the smallest displacement (least squares)
+// that moves the point by d. Vertices the tool moved lose their velocity into the tool.
+#include "tool_contact.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "closest_points.hpp"
+#include "pliant/error.hpp"
+#include "pliant/kernels/node_passes.hpp"
+#include "pliant/scheduler/executor.hpp"
+
+namespace pliant::detail {
+namespace {
+
+template <class T>
+P3 vertex(const Level<T>& L, std::int32_t n) {
+  return {double(L.x[0][std::size_t(n)]), double(L.x[1][std::size_t(n)]), double(L.x[2][std::size_t(n)])};
+}
+
+P3 to_body(const Vec3d& p, const Vec3d& origin) { return {p[0] - origin[0], p[1] - origin[1], p[2] - origin[2]}; }
+
+}  // namespace
+
+template <class T>
+LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int body, int level, Executor& exec,
+                                   const ToolPose& pose) {
+  LevelContact<T> lc;
+  lc.body = body;
+  lc.level = level;
+  lc.from = pose;
+  std::vector<std::int32_t> vertex_of(L.node_count, -1);
+  for (const auto& t : L.boundary)
+    for (std::int32_t n : t) vertex_of[std::size_t(n)] = 0;
+  for (std::size_t n = 0; n < L.node_count; ++n)
+    if (vertex_of[n] == 0) {
+      vertex_of[n] = std::int32_t(lc.surface_nodes.size());
+      lc.surface_nodes.push_back(std::int32_t(n));
+    }
+  lc.triangles.reserve(L.boundary.size());
+  for (const auto& t : L.boundary)
+    lc.triangles.push_back({vertex_of[std::size_t(t[0])], vertex_of[std::size_t(t[1])], vertex_of[std::size_t(t[2])]});
+  lc.bvh = std::make_unique<SurfaceBvh>(device, lc.triangles, lc.surface_nodes.size());
+  float* v = lc.bvh->vertices();
+  for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
+    for (int k = 0; k < 3; ++k) v[4 * i + std::size_t(k)] = float(L.x[k][std::size_t(lc.surface_nodes[i])]);
+  std::string error;
+  if (!lc.bvh->refit(exec, error)) throw InputError("building the collision surface of a body: " + error);
+  lc.candidates.reserve(lc.triangles.size());
+  lc.hits.reserve(lc.triangles.size());
+  lc.held.assign(lc.surface_nodes.size(), 0);
+  lc.push.assign(lc.surface_nodes.size(), {0, 0, 0});
+  lc.held_vertices.reserve(lc.surface_nodes.size());
+  return lc;
+}
+
+template <class T>
+bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeDef& shape, const ToolPose& from,
+                        const ToolPose& to, const Vec3d& origin, Executor& exec, std::string& error) {
+  // 1. The BVH follows the surface.
+  float* vb = lc.bvh->vertices();
+  for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
+    for (int k = 0; k < 3; ++k) vb[4 * i + std::size_t(k)] = float(L.x[k][std::size_t(lc.surface_nodes[i])]);
+  if (!lc.bvh->refit(exec, error)) return false;
+
+  // 2. The tool's axis at the start and end of the window, body frame.
+  Vec3d wa0, wb0, wa1, wb1;
+  tool_axis(shape, from, wa0, wb0);
+  tool_axis(shape, to, wa1, wb1);
+  const P3 a0 = to_body(wa0, origin), b0 = to_body(wb0, origin), a1 = to_body(wa1, origin), b1 = to_body(wb1, origin);
+  const double r = shape.radius;
+  P3 centre = mul(add(add(a0, b0), add(a1, b1)), 0.25);
+  double reach = 0;
+  for (const P3* p : {&a0, &b0, &a1, &b1}) reach = std::max(reach, std::sqrt(norm2(sub(*p, centre))));
+  // Embree's boxes are in float: widen the ball by a few float ulps of the coordinates involved.
+  const double coord = std::max({std::abs(centre[0]), std::abs(centre[1]), std::abs(centre[2])}) + reach + r;
+  const float ball_centre[3] = {float(centre[0]), float(centre[1]), float(centre[2])};
+  lc.bvh->triangles_near(ball_centre, float((reach + r) * (1 + 1e-5) + 1e-6 * coord), lc.candidates);
+
+  // 3. Exact test against the swept volume: within r of what the axis swept.
+  const bool moved = norm2(sub(a0, a1)) + norm2(sub(b0, b1)) > 0;
+  const bool capsule = shape.kind == ToolShapeDef::Kind::capsule;
+  lc.hits.clear();
+  for (std::uint32_t t : lc.candidates) {
+    const auto& tri = lc.triangles[t];
+    bool any_free = false;
+    for (std::int32_t i : tri) any_free |= L.state[std::size_t(lc.surface_nodes[std::size_t(i)])] == kNodeFree;
+    if (!any_free) continue;
+    const P3 p0 = vertex(L, lc.surface_nodes[std::size_t(tri[0])]), p1 = vertex(L, lc.surface_nodes[std::size_t(tri[1])]),
+             p2 = vertex(L, lc.surface_nodes[std::size_t(tri[2])]);
+    double d2;
+    if (!moved) {
+      d2 = closest_segment_triangle(a1, b1, p0, p1, p2).distance2;
+    } else if (!capsule) {
+      d2 = closest_segment_triangle(a0, a1, p0, p1, p2).distance2;
+    } else {
+      const std::array<P3, 3> tri_p{p0, p1, p2};
+      d2 = std::min(triangle_triangle_distance2({a0, b0, b1}, tri_p), triangle_triangle_distance2({a0, b1, a1}, tri_p));
+    }
+    if (d2 <= r * r) lc.hits.push_back(t);
+  }
+  return true;
+}
+
+template <class T>
+bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& shape, const ToolPose& to,
+                          const Vec3d& origin, double dt, Executor& exec, std::string& error) {
+  if (!find_tool_contacts(lc, L, shape, lc.from, to, origin, exec, error)) return false;
+  Vec3d wa0, wb0, wa1, wb1;
+  tool_axis(shape, lc.from, wa0, wb0);
+  tool_axis(shape, to, wa1, wb1);
+  const P3 a0 = to_body(wa0, origin), b0 = to_body(wb0, origin), a1 = to_body(wa1, origin), b1 = to_body(wb1, origin);
+  const double r = shape.radius;
+
+  // 4. Response: each touched triangle's point nearest the axis goes onto the tool's surface.
+  for (std::int32_t i : lc.held_vertices) {
+    lc.held[std::size_t(i)] = 0;
+    lc.push[std::size_t(i)] = {0, 0, 0};
+  }
+  lc.held_vertices.clear();
+  for (int iteration = 0; iteration < kContactIterations; ++iteration) {
+    for (std::uint32_t t : lc.hits) {
+      const auto& tri = lc.triangles[t];
+      std::int32_t node[3];
+      P3 p[3];
+      double w[3];
+      for (int k = 0; k < 3; ++k) {
+        node[k] = lc.surface_nodes[std::size_t(tri[std::size_t(k)])];
+        p[k] = vertex(L, node[k]);
+      }
+      const SegmentTriangle st = closest_segment_triangle(a1, b1, p[0], p[1], p[2]);
+      if (st.distance2 >= r * r) continue;
+      const P3 axis_point = add(a1, mul(sub(b1, a1), st.s));
+      const P3 normal_out = cross(sub(p[1], p[0]), sub(p[2], p[0]));  // outward (boundary orientation)
+      const double nn = std::sqrt(norm2(normal_out));
+      if (!(nn > 0)) continue;
+      const P3 n_out = mul(normal_out, 1 / nn);
+      const P3 from_axis = sub(st.on_triangle.point, axis_point);
+      const double dist = std::sqrt(st.distance2);
+      P3 d;
+      if (dot(from_axis, n_out) < 0 && dist > 1e-12 * r) {
+        // The axis is outside the body, in front of the triangle: push radially onto the surface.
+        d = mul(from_axis, (r - dist) / dist);
+      } else {
+        // The axis is at or behind the triangle's plane (a deep push): along the inward normal,
+        // to a tool radius beyond the axis.
+        d = mul(n_out, -(r + dot(sub(axis_point, st.on_triangle.point), mul(n_out, -1.0))));
+      }
+      double sum_w2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        w[k] = L.state[std::size_t(node[k])] == kNodeFree ? st.on_triangle.w[std::size_t(k)] : 0.0;
+        sum_w2 += w[k] * w[k];
+      }
+      if (sum_w2 < 1e-12) continue;  // the point is on non-free vertices only
+      for (int k = 0; k < 3; ++k) {
+        if (w[k] == 0) continue;
+        const double s = w[k] / sum_w2;
+        const auto n = std::size_t(node[k]);
+        for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) + s * d[std::size_t(c)]);
+        const auto i = std::size_t(tri[std::size_t(k)]);
+        for (int c = 0; c < 3; ++c) lc.push[i][std::size_t(c)] += s * d[std::size_t(c)];
+        if (!lc.held[i]) {
+          lc.held[i] = 1;
+          lc.held_vertices.push_back(std::int32_t(i));
+        }
+      }
+    }
+  }
+  std::sort(lc.held_vertices.begin(), lc.held_vertices.end());
+
+  // 5. Held vertices lose their velocity into the tool (relative to the tool's motion there),
+  // and their forces are the reaction on the tool.
+  Vec3d force{0, 0, 0};
+  for (std::int32_t i : lc.held_vertices) {
+    const auto n = std::size_t(lc.surface_nodes[std::size_t(i)]);
+    const P3& push = lc.push[std::size_t(i)];
+    const double len = std::sqrt(norm2(push));
+    if (len > 0 && dt > 0) {
+      const P3 dir = mul(push, 1 / len);
+      // The tool's velocity at the node: that of the axis point nearest to it.
+      double s = 0, unused = 0;
+      const P3 x = vertex(L, std::int32_t(n));
+      closest_segment_segment(a1, b1, x, x, s, unused);
+      const P3 v_tool = mul(sub(add(a1, mul(sub(b1, a1), s)), add(a0, mul(sub(b0, a0), s))), 1 / dt);
+      const P3 v{double(L.v[0][n]), double(L.v[1][n]), double(L.v[2][n])};
+      const double vn = dot(sub(v, v_tool), dir);
+      if (vn < 0)
+        for (int c = 0; c < 3; ++c) L.v[c][n] = T(v[std::size_t(c)] - vn * dir[std::size_t(c)]);
+    }
+    for (int c = 0; c < 3; ++c) force[std::size_t(c)] += double(L.f[c][n]);
+  }
+
+  // 6. What is left inside the tool.
+  double worst = 0;
+  for (std::uint32_t t : lc.hits) {
+    const auto& tri = lc.triangles[t];
+    const SegmentTriangle st = closest_segment_triangle(a1, b1, vertex(L, lc.surface_nodes[std::size_t(tri[0])]),
+                                                        vertex(L, lc.surface_nodes[std::size_t(tri[1])]),
+                                                        vertex(L, lc.surface_nodes[std::size_t(tri[2])]));
+    worst = std::max(worst, r - std::sqrt(st.distance2));
+  }
+  lc.force = force;
+  lc.contacts = int(lc.hits.size());
+  lc.max_penetration = worst;
+  lc.from = to;
+  return true;
+}
+
+template LevelContact<float> make_level_contact<float>(EmbreeDevice&, const Level<float>&, int, int, Executor&, const ToolPose&);
+template LevelContact<double> make_level_contact<double>(EmbreeDevice&, const Level<double>&, int, int, Executor&, const ToolPose&);
+template bool find_tool_contacts<float>(LevelContact<float>&, const Level<float>&, const ToolShapeDef&, const ToolPose&,
+                                        const ToolPose&, const Vec3d&, Executor&, std::string&);
+template bool find_tool_contacts<double>(LevelContact<double>&, const Level<double>&, const ToolShapeDef&, const ToolPose&,
+                                         const ToolPose&, const Vec3d&, Executor&, std::string&);
+template bool resolve_tool_contact<float>(LevelContact<float>&, Level<float>&, const ToolShapeDef&, const ToolPose&,
+                                          const Vec3d&, double, Executor&, std::string&);
+template bool resolve_tool_contact<double>(LevelContact<double>&, Level<double>&, const ToolShapeDef&, const ToolPose&,
+                                           const Vec3d&, double, Executor&, std::string&);
+
+}  // namespace pliant::detail

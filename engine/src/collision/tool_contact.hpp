@@ -1,0 +1,60 @@
+// A tool against one level of one body (thesis ch. 6 §2; docs/tool.md): find the surface
+// triangles it touches or swept through over the level's window (Embree BVH + exact tests), move
+// their free vertices onto the tool's surface with the smallest barycentric displacement, remove
+// their velocity into the tool, and read the reaction. Runs after the level's integration, on
+// the calling thread except for the BVH refit (our executor's threads). Allocation-free after
+// make_level_contact: every scratch array is sized there.
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "pliant/level.hpp"
+#include "pliant/tool.hpp"
+#include "surface_bvh.hpp"
+
+namespace pliant::detail {
+
+template <class T>
+struct LevelContact {
+  int body = 0, level = 0;
+  std::unique_ptr<SurfaceBvh> bvh;
+  std::vector<std::int32_t> surface_nodes;               // level node of each surface vertex
+  std::vector<std::array<std::int32_t, 3>> triangles;    // surface vertex indices (L.boundary, renumbered)
+  std::vector<std::uint32_t> candidates, hits;           // scratch: triangles near the tool, touched
+  std::vector<std::uint8_t> held;                        // per surface vertex: moved in this window
+  std::vector<std::array<double, 3>> push;               // per surface vertex: sum of its displacements
+  std::vector<std::int32_t> held_vertices;               // surface vertices moved in the last window
+  ToolPose from;                                         // the tool's pose at the start of the window
+  // Results of the level's last window.
+  Vec3d force{};          // N, world frame
+  int contacts = 0;
+  double max_penetration = 0;  // m
+};
+
+// Sets up the contact of a tool with level L of a body (its boundary triangles; Embree BVH built).
+template <class T>
+LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int body, int level, Executor& exec,
+                                   const ToolPose& pose);
+
+// Detection only: refits the BVH to L's positions and fills lc.hits with the surface triangles
+// (with at least one free vertex) that the tool, moving from `from` to `to`, reaches within its
+// radius (sorted). Returns false with a message if Embree failed.
+template <class T>
+bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeDef& shape, const ToolPose& from,
+                        const ToolPose& to, const Vec3d& origin, Executor& exec, std::string& error);
+
+// The contact pass at the end of a window: the tool moved from `lc.from` to `to` (world frame;
+// `origin` is the body frame's origin). Updates L.x, L.v of free surface nodes and lc's results;
+// lc.from becomes `to`. dt: the window's length (s). Returns false with a message if Embree failed.
+template <class T>
+bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& shape, const ToolPose& to,
+                          const Vec3d& origin, double dt, Executor& exec, std::string& error);
+
+// Iterations of the projection over the touched triangles (Gauss-Seidel, in triangle order):
+// neighbouring triangles share vertices, and moving one moves its neighbours' points.
+inline constexpr int kContactIterations = 4;
+
+}  // namespace pliant::detail

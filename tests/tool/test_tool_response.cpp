@@ -1,0 +1,206 @@
+// The tool in a running world (docs/tool.md): a sphere pressed into a soft slab clamped at its
+// base keeps every touched triangle within 0.1 h of its surface, reads an upward force that the
+// clamp balances once the slab is at rest, obeys Newton's third law node by node, lets go when it
+// withdraws (no sticking), gives the same bits for 1, 2 and 4 threads and for host-driven
+// poses, and refuses bad definitions naming the field.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pliant/world.hpp"
+
+namespace pliant {
+namespace {
+
+using ::testing::HasSubstr;
+
+constexpr double kEdge = 0.1 / 8;  // m, the slab's cell size (h of the penetration bound)
+
+BodyDef slab() {
+  BodyDef b;
+  b.name = "slab";
+  b.mesh.kind = MeshSourceDef::Kind::box;
+  b.mesh.min = {-0.05, -0.05, 0.0};
+  b.mesh.max = {0.05, 0.05, 0.05};
+  b.mesh.cells = {8, 8, 4};
+  b.material.young = 5e4;
+  b.material.poisson = 0.3;
+  b.material.density = 1000;
+  b.material.damping.stiffness = 0.01;  // s: the slab settles in a few tenths of a second
+  b.material.damping.mass = 5;
+  RegionDef base;
+  base.min = {-1, -1, -1e-9};
+  base.max = {1, 1, 1e-9};
+  b.fixed.push_back(base);
+  return b;
+}
+
+// A 1 cm sphere that comes down onto the slab's top (z = 0.05) and presses `depth` into it over
+// 0.2 s, holds until 0.6 s, and leaves by 0.8 s.
+ToolDef pusher(double depth = 0.008) {
+  ToolDef t;
+  t.name = "probe";
+  t.shape.radius = 0.01;
+  const double top = 0.05 + 0.01;
+  t.keyframes = {{0.0, {0, 0, top + 0.002}}, {0.2, {0, 0, top - depth}}, {0.6, {0, 0, top - depth}}, {0.8, {0, 0, top + 0.01}}};
+  return t;
+}
+
+WorldDef world_def(int threads = 1, Precision p = Precision::float64) {
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  wd.threads = threads;
+  wd.precision = p;
+  return wd;
+}
+
+TEST(ToolResponse, PressHoldReleaseKeepsTheSurfaceOutsideAndReadsTheClampsReaction) {
+  World w(world_def());
+  w.add_body(slab());
+  const ToolId tool = w.add_tool(pusher());
+  double worst_penetration = 0, max_force = 0;
+  int max_held = 0;
+  Vec3d force_at_rest{}, clamp_at_rest{};
+  while (w.time() < 1.0 - 1e-12) {
+    w.step();
+    const ToolReading r = w.tool_reading(tool);
+    worst_penetration = std::max(worst_penetration, r.max_penetration);
+    max_force = std::max(max_force, r.force[2]);
+    max_held = std::max(max_held, r.held_nodes);
+    // Newton's third law node by node: the internal forces of the elements sum to zero, so what
+    // the held nodes push the tool with is what every other node receives, with the sign changed.
+    const Level<double>& L = w.level<double>(0);
+    if (r.held_nodes > 0) {
+      Vec3d all{0, 0, 0};
+      for (std::size_t n = 0; n < L.node_count; ++n)
+        for (int k = 0; k < 3; ++k) all[std::size_t(k)] += L.f[k][n];
+      const Vec3d others{all[0] - r.force[0], all[1] - r.force[1], all[2] - r.force[2]};
+      const double scale = std::sqrt(r.force[0] * r.force[0] + r.force[1] * r.force[1] + r.force[2] * r.force[2]);
+      for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(r.force[std::size_t(k)] + others[std::size_t(k)]), 1e-9 * scale);
+    }
+    if (std::abs(w.time() - 0.6) < 0.5 * w.dt()) {
+      force_at_rest = r.force;
+      for (std::size_t n = 0; n < L.node_count; ++n)
+        if (L.state[n] == kNodeFixed)
+          for (int k = 0; k < 3; ++k) clamp_at_rest[std::size_t(k)] += L.f[k][n];
+    }
+  }
+  std::printf("worst penetration %.3g m (%.3g h), largest force %.4g N, most held nodes %d\n", worst_penetration,
+              worst_penetration / kEdge, max_force, max_held);
+  std::printf("at rest: tool force z %.6g N, clamp reaction z %.6g N\n", force_at_rest[2], clamp_at_rest[2]);
+  EXPECT_LE(worst_penetration, 0.1 * kEdge);
+  EXPECT_GT(max_held, 0);
+  // Pressing down reads +z; at rest the clamp holds the slab against the tool.
+  EXPECT_GT(force_at_rest[2], 0.1);
+  EXPECT_NEAR(force_at_rest[2], -clamp_at_rest[2], 0.02 * force_at_rest[2]);
+  // Released: nothing held, no contact, the top back near its rest height (no node left on the tool).
+  const ToolReading end = w.tool_reading(tool);
+  EXPECT_EQ(end.held_nodes, 0);
+  EXPECT_EQ(end.contacts, 0);
+  double top = -1;
+  for (std::size_t n = 0; n < w.node_count(0); ++n) top = std::max(top, w.node_position(0, n)[2]);
+  EXPECT_NEAR(top, 0.05, 0.002);
+}
+
+std::uint64_t run_hash(int threads, bool host_driven, Vec3d* force = nullptr) {
+  World w(world_def(threads));
+  w.add_body(slab());
+  ToolDef def = pusher();
+  const ToolId tool = w.add_tool(def);
+  while (w.time() < 0.3) {  // pressing 4 mm deep by then
+    if (host_driven) w.set_tool_pose(tool, tool_pose_at(def.keyframes, w.time() + w.dt()));
+    w.step();
+  }
+  if (force) *force = w.tool_reading(tool).force;
+  return w.state_hash();
+}
+
+TEST(ToolResponse, SameBitsForOneTwoAndFourThreadsAndForHostDrivenPoses) {
+  Vec3d f1, f2, f4, fh;
+  const std::uint64_t h1 = run_hash(1, false, &f1);
+  EXPECT_EQ(run_hash(2, false, &f2), h1);
+  EXPECT_EQ(run_hash(4, false, &f4), h1);
+  EXPECT_EQ(f2, f1);
+  EXPECT_EQ(f4, f1);
+  EXPECT_GT(f1[2], 0);
+  EXPECT_EQ(run_hash(1, true, &fh), h1);
+  EXPECT_EQ(fh, f1);
+}
+
+TEST(ToolResponse, AFastToolDoesNotTunnelThroughTheSurface) {
+  // 10x the default scene's tool speed (0.5 m/s down): every step's sweep is seen.
+  World w(world_def());
+  w.add_body(slab());
+  ToolDef t = pusher();
+  t.keyframes = {{0.0, {0, 0, 0.065}}, {0.03, {0, 0, 0.05}}, {0.2, {0, 0, 0.05}}};
+  const ToolId tool = w.add_tool(t);
+  double worst = 0;
+  while (w.time() < 0.1) {
+    w.step();
+    worst = std::max(worst, w.tool_reading(tool).max_penetration);
+  }
+  EXPECT_LE(worst, 0.1 * kEdge);
+  // The sphere's centre is at the slab's rest top: the top must have been pushed a radius down.
+  double top_centre = -1;  // the highest node on the slab's axis
+  for (std::size_t n = 0; n < w.node_count(0); ++n) {
+    const Vec3d p = w.node_position(0, n);
+    if (std::hypot(p[0], p[1]) < 1e-6) top_centre = std::max(top_centre, p[2]);
+  }
+  EXPECT_LT(top_centre, 0.05 - 0.009);
+}
+
+TEST(ToolResponse, FloatWorldAlsoKeepsTheBound) {
+  World w(world_def(1, Precision::float32));
+  w.add_body(slab());
+  const ToolId tool = w.add_tool(pusher());
+  double worst = 0;
+  while (w.time() < 0.3) {
+    w.step();
+    worst = std::max(worst, w.tool_reading(tool).max_penetration);
+  }
+  EXPECT_LE(worst, 0.1 * kEdge);
+  EXPECT_GT(w.tool_reading(tool).force[2], 0.1);
+}
+
+TEST(ToolResponse, BadDefinitionsAreRefusedNamingTheField) {
+  World w(world_def());
+  w.add_body(slab());
+  auto refused = [&](ToolDef t) {
+    try {
+      w.add_tool(t);
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string("accepted");
+  };
+  ToolDef t = pusher();
+  t.shape.radius = 0;
+  EXPECT_THAT(refused(t), HasSubstr("radius"));
+  t = pusher();
+  t.shape.kind = ToolShapeDef::Kind::capsule;
+  t.shape.length = -1;
+  EXPECT_THAT(refused(t), HasSubstr("length"));
+  t = pusher();
+  t.keyframes.clear();
+  EXPECT_THAT(refused(t), HasSubstr("keyframe"));
+  t = pusher();
+  t.keyframes[1].time = 0;
+  EXPECT_THAT(refused(t), HasSubstr("keyframes[1]"));
+  t = pusher();
+  t.keyframes[2].orientation = {0, 0, 0, 0};
+  EXPECT_THAT(refused(t), HasSubstr("orientation"));
+  t = pusher();
+  t.keyframes[0].position[1] = std::nan("");
+  EXPECT_THAT(refused(t), HasSubstr("keyframes[0]"));
+  t = pusher();
+  t.bodies = {"liver"};
+  EXPECT_THAT(refused(t), HasSubstr("'liver'"));
+  EXPECT_EQ(w.tool_count(), 0u);
+  const ToolId ok = w.add_tool(pusher());
+  EXPECT_THROW(w.set_tool_pose(ok, ToolPose{{0, 0, std::nan("")}, {1, 0, 0, 0}}), InputError);
+  EXPECT_THROW(w.tool_reading(5), InputError);
+}
+
+}  // namespace
+}  // namespace pliant
