@@ -182,10 +182,12 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     }
     fmt::print("max displacement {:.4g} m, kinetic {:.4g} J, elastic {:.4g} J, state hash {}\n", s.max_displacement,
                s.kinetic_energy, s.elastic_energy, s.state_hash);
-    fmt::print("results in {}/ (summary.json{}{})\n", fs::path(out).string(),
-               s.files.size() > 1 && std::find(s.files.begin(), s.files.end(), "probes.csv") != s.files.end()
-                   ? ", probes.csv" : "",
-               scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
+    for (const auto& t : s.tools)
+      fmt::print("tool '{}': largest force {:.4g} N, in contact {} of {} steps, deepest penetration {:.3g} m\n", t.name,
+                 t.max_force, t.contact_steps, s.steps, t.max_penetration);
+    auto wrote = [&](const char* f) { return std::find(s.files.begin(), s.files.end(), f) != s.files.end(); };
+    fmt::print("results in {}/ (summary.json{}{}{})\n", fs::path(out).string(), wrote("probes.csv") ? ", probes.csv" : "",
+               wrote("tools.csv") ? ", tools.csv" : "", scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
   }
   if (recorder && recorder->active()) {
     std::fflush(stdout);

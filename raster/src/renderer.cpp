@@ -357,8 +357,8 @@ struct Renderer::Impl {
       const Vec3d& c1 = (j < kUp / 2) ? t.a : t.b;
       glBegin(GL_QUAD_STRIP);
       for (int i = 0; i <= kAround; ++i) {
+        vertex(i % kAround, j1, c1);  // counter-clockwise seen from outside (front faces out)
         vertex(i % kAround, j0, c0);
-        vertex(i % kAround, j1, c1);
       }
       glEnd();
     }

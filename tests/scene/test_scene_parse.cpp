@@ -284,6 +284,29 @@ const Violation kViolations[] = {
     {"load missing force", BOX_BODY(R"(, "loads": [{"region": {"nodes": [0]}}])"), "bodies[0].loads[0].force"},
     {"duplicate key", R"({"bodies": [{"mesh": {"box": {}}, "model": "linear", "model": "stvk"}]})", "bodies[0].model"},
     {"top level not object", "[1, 2]", "top level"},
+#define TOOL(t) "{\"bodies\": [{\"mesh\": {\"box\": {}}}], \"tools\": [" t "]}"
+#define KEYS R"("path": {"keyframes": [{"time": 0, "position": [0,0,1]}]})"
+    {"tool radius 0", TOOL(R"({"shape": {"sphere": {"radius": 0}}, )" KEYS "}"), "tools[0].shape.sphere.radius"},
+    {"tool capsule no length", TOOL(R"({"shape": {"capsule": {"radius": 0.01}}, )" KEYS "}"), "tools[0].shape.capsule.length"},
+    {"tool two shapes", TOOL(R"({"shape": {"sphere": {"radius": 1}, "capsule": {"radius": 1, "length": 1}}, )" KEYS "}"),
+     "tools[0].shape"},
+    {"tool unknown shape", TOOL(R"({"shape": {"cube": {}}, )" KEYS "}"), "tools[0].shape.cube"},
+    {"tool no path", TOOL(R"({"shape": {"sphere": {"radius": 1}}})"), "tools[0].path"},
+    {"tool no keyframes", TOOL(R"({"shape": {"sphere": {"radius": 1}}, "path": {"keyframes": []}})"), "tools[0].path.keyframes"},
+    {"tool times not increasing",
+     TOOL(R"({"shape": {"sphere": {"radius": 1}}, "path": {"keyframes": [{"time": 0, "position": [0,0,1]},
+        {"time": 0, "position": [0,0,2]}]}})"),
+     "tools[0].path.keyframes[1].time"},
+    {"tool zero quaternion",
+     TOOL(R"({"shape": {"sphere": {"radius": 1}}, "path": {"keyframes": [{"time": 0, "position": [0,0,1], "orientation": [0,0,0,0]}]}})"),
+     "tools[0].path.keyframes[0].orientation"},
+    {"tool unknown body", TOOL(R"({"shape": {"sphere": {"radius": 1}}, )" KEYS R"(, "bodies": ["liver"]})"), "tools[0].bodies[0]"},
+    {"tool missing csv", TOOL(R"({"shape": {"sphere": {"radius": 1}}, "path": {"csv": "no_such_4711.csv"}})"), "tools[0].path.csv"},
+    {"duplicate tool names", TOOL(R"({"name": "a", "shape": {"sphere": {"radius": 1}}, )" KEYS R"(}, {"name": "a", "shape": {"sphere": {"radius": 1}}, )" KEYS "}"),
+     "tools[1].name"},
+    {"tool unknown key", TOOL(R"({"shape": {"sphere": {"radius": 1}}, )" KEYS R"(, "colour": "red"})"), "tools[0].colour"},
+#undef KEYS
+#undef TOOL
 };
 #undef BOX_BODY
 #undef BODY
@@ -295,6 +318,58 @@ INSTANTIATE_TEST_SUITE_P(Rules, SceneViolation, ::testing::ValuesIn(kViolations)
                              if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
                            return n;
                          });
+
+TEST(SceneParse, ToolsFromKeyframesAndFromCsv) {
+  TempDir dir;
+  dir.write("path.csv", "# a tool path\nx,time,y,z,qw,qx,qy,qz\n0.1,0,0,1,1,0,0,0\n0.2,0.5,0,0.5,0,0,0,2\n");
+  const SceneDef s = parse_scene(R"({"bodies": [{"name": "b", "mesh": {"box": {}}}],
+    "tools": [{"name": "probe", "shape": {"capsule": {"radius": 0.01, "length": 0.1}},
+               "path": {"keyframes": [{"time": 0, "position": [1, 2, 3]},
+                                      {"time": 1, "position": [1, 2, 2], "orientation": [0, 1, 0, 0]}]},
+               "bodies": ["b"]},
+              {"shape": {"sphere": {"radius": 0.02}}, "path": {"csv": "path.csv"}}]})",
+                                 "t.json", dir.path());
+  ASSERT_EQ(s.tools.size(), 2u);
+  const ToolDef& a = s.tools[0];
+  EXPECT_EQ(a.name, "probe");
+  EXPECT_EQ(a.shape.kind, ToolShapeDef::Kind::capsule);
+  EXPECT_EQ(a.shape.radius, 0.01);
+  EXPECT_EQ(a.shape.length, 0.1);
+  ASSERT_EQ(a.keyframes.size(), 2u);
+  EXPECT_EQ(a.keyframes[1].position, (Vec3d{1, 2, 2}));
+  EXPECT_EQ(a.keyframes[1].orientation, (Quatd{0, 1, 0, 0}));
+  EXPECT_EQ(a.keyframes[0].orientation, (Quatd{1, 0, 0, 0}));
+  EXPECT_EQ(a.bodies, std::vector<std::string>{"b"});
+  const ToolDef& b = s.tools[1];
+  EXPECT_EQ(b.name, "tool1");
+  EXPECT_EQ(b.shape.kind, ToolShapeDef::Kind::sphere);
+  ASSERT_EQ(b.keyframes.size(), 2u);
+  EXPECT_EQ(b.keyframes[1].time, 0.5);
+  EXPECT_EQ(b.keyframes[1].position, (Vec3d{0.2, 0, 0.5}));
+  EXPECT_EQ(b.keyframes[1].orientation, (Quatd{0, 0, 0, 2}));  // normalised when the tool is added
+}
+
+TEST(SceneParse, BadToolCsvNamesFileAndLine) {
+  TempDir dir;
+  auto error = [&](const std::string& csv) {
+    dir.write("p.csv", csv);
+    try {
+      parse_scene(R"({"bodies": [{"mesh": {"box": {}}}], "tools": [{"shape": {"sphere": {"radius": 1}}, "path": {"csv": "p.csv"}}]})",
+                  "t.json", dir.path());
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_NE(error("time,x,y\n0,0,0\n").find("no \"z\""), std::string::npos) << error("time,x,y\n0,0,0\n");
+  EXPECT_NE(error("time,x,y,z\n0,0,0,0\n1,0,zero,0\n").find("p.csv:3: column y is \"zero\""), std::string::npos)
+      << error("time,x,y,z\n0,0,0,0\n1,0,zero,0\n");
+  EXPECT_NE(error("time,x,y,z\n1,0,0,0\n0,0,0,0\n").find("p.csv:3: times must increase"), std::string::npos);
+  EXPECT_NE(error("time,x,y,z\n0,0,0\n").find("p.csv:2: 3 values where the header has 4"), std::string::npos);
+  EXPECT_NE(error("time,x,y,z\n").find("no keyframe rows"), std::string::npos);
+  EXPECT_NE(error("time,x,y,z,qw\n0,0,0,0,1\n").find("all of qw,qx,qy,qz"), std::string::npos);
+  EXPECT_NE(error("time,x,y,z\n").find("tools[0].path.csv"), std::string::npos);
+}
 
 TEST(SceneParse, MessageShowsExpectationAndValue) {
   EXPECT_NE(error_of(R"({"bodies": [{"mesh": {"box": {}}, "material": {"poisson": 0.7}}]})")

@@ -163,6 +163,49 @@ TEST(ToolResponse, FloatWorldAlsoKeepsTheBound) {
   EXPECT_GT(w.tool_reading(tool).force[2], 0.1);
 }
 
+// A two-level slab (coarse cells 2 x those of slab()): contact works on whichever level is
+// active under the tool — the fine level in a region around it, or the coarse one everywhere.
+void multilevel_press(ActiveDef::Kind kind, int expect_level) {
+  World w(world_def());
+  BodyDef b = slab();
+  b.multiresolution.levels = 2;
+  b.multiresolution.active.kind = kind;
+  if (kind == ActiveDef::Kind::regions) {
+    ActiveRegionDef near_tool;
+    near_tool.level = 1;
+    near_tool.region.kind = RegionDef::Kind::box;
+    near_tool.region.min = {-0.03, -0.03, 0.02};
+    near_tool.region.max = {0.03, 0.03, 0.06};
+    b.multiresolution.active.regions.push_back(near_tool);
+  }
+  w.add_body(b);
+  const ToolId tool = w.add_tool(pusher());
+  double worst = 0;
+  while (w.time() < 0.4) {
+    w.step();
+    worst = std::max(worst, w.tool_reading(tool).max_penetration);
+  }
+  const ToolReading r = w.tool_reading(tool);
+  EXPECT_GT(r.force[2], 0.1);
+  EXPECT_GT(r.held_nodes, 0);
+  const double h = kEdge * (expect_level == 0 ? 2 : 1);
+  EXPECT_LE(worst, 0.1 * h);
+  // The top under the tool went down on the level that is active there.
+  double top = -1;
+  for (std::size_t n = 0; n < w.node_count(0, expect_level); ++n) {
+    const Vec3d p = w.node_position(0, n, expect_level);
+    if (std::hypot(p[0], p[1]) < 1e-6) top = std::max(top, p[2]);
+  }
+  EXPECT_LT(top, 0.05 - 0.005);
+  std::printf("active level %d under the tool: force %.4g N, %d held nodes, worst penetration %.3g h\n", expect_level,
+              r.force[2], r.held_nodes, worst / h);
+}
+
+TEST(ToolResponse, OnAMultiresolutionBodyTheActiveLevelUnderTheToolIsTouched) {
+  multilevel_press(ActiveDef::Kind::regions, 1);
+  multilevel_press(ActiveDef::Kind::coarsest, 0);
+}
+
 TEST(ToolResponse, BadDefinitionsAreRefusedNamingTheField) {
   World w(world_def());
   w.add_body(slab());

@@ -255,6 +255,7 @@ RunPlan plan_run(const World& world, const SceneDef& scene, const RunOptions& op
       break;
     }
   if (world.probe_count() > 0) plan.outputs.push_back("probes.csv");
+  if (world.tool_count() > 0) plan.outputs.push_back("tools.csv");
   if (scene.output.vtu_every > 0) {
     const auto frames = std::int64_t(std::floor(plan.duration / scene.output.vtu_every + 1e-9)) + 1;
     plan.outputs.push_back(fmt::format("series.pvd + vtu/ ({} frames x {} bod{})", frames, world.body_count(),
