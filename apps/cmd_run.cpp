@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "commands.hpp"
+#include "pliant/raster/plot.hpp"
 #include "pliant/raster/recorder.hpp"
 #include "pliant/run.hpp"
 #include "pliant/run_plan.hpp"
@@ -29,6 +30,49 @@ struct PictureOptions {
   std::string field = "displacement", size = "1280x720", camera = "scene", up;
   std::optional<double> azimuth, elevation;  // degrees
 };
+
+// OUT/tools.png: the force each tool felt over the run (its z component and magnitude), read
+// back from OUT/tools.csv (time,tool,x,y,z,fx,fy,fz,...).
+bool plot_tool_forces(const fs::path& csv, const fs::path& png) {
+  std::FILE* f = std::fopen(csv.string().c_str(), "r");
+  if (!f) return false;
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> t, fz, fmag;
+  char line[1024];
+  bool header = true;
+  while (std::fgets(line, sizeof line, f)) {
+    if (header) {
+      header = false;
+      continue;
+    }
+    double time = 0, x, y, z, fx = 0, fy = 0, fzv = 0;
+    char name[256] = {0};
+    if (std::sscanf(line, "%lf,%255[^,],%lf,%lf,%lf,%lf,%lf,%lf", &time, name, &x, &y, &z, &fx, &fy, &fzv) != 8) continue;
+    auto it = std::find(names.begin(), names.end(), std::string(name));
+    std::size_t i = std::size_t(it - names.begin());
+    if (it == names.end()) {
+      names.push_back(name);
+      t.emplace_back();
+      fz.emplace_back();
+      fmag.emplace_back();
+    }
+    t[i].push_back(time);
+    fz[i].push_back(fzv);
+    fmag[i].push_back(std::sqrt(fx * fx + fy * fy + fzv * fzv));
+  }
+  std::fclose(f);
+  if (names.empty()) return false;
+  raster::Plot p;
+  p.title = "force of the bodies on the tool";
+  p.x = {"time", "s"};
+  p.y = {"force", "N"};
+  for (std::size_t i = 0; i < names.size(); ++i) {
+    p.series.push_back({names[i] + " |f|", t[i], fmag[i]});
+    p.series.push_back({names[i] + " f_z", t[i], fz[i]});
+  }
+  raster::write_plot_png(p, png);
+  return true;
+}
 
 void report_pictures(const raster::RecorderResult& r, const fs::path& out, bool quiet) {
   if (quiet) return;
@@ -189,6 +233,9 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     fmt::print("results in {}/ (summary.json{}{}{})\n", fs::path(out).string(), wrote("probes.csv") ? ", probes.csv" : "",
                wrote("tools.csv") ? ", tools.csv" : "", scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
   }
+  if (std::find(s.files.begin(), s.files.end(), "tools.csv") != s.files.end() &&
+      plot_tool_forces(fs::path(out) / "tools.csv", fs::path(out) / "tools.png") && !quiet)
+    fmt::print("tool forces: {}\n", (fs::path(out) / "tools.png").string());
   if (recorder && recorder->active()) {
     std::fflush(stdout);
     if (!quiet) fmt::print(stderr, "pliant: rendering pictures ...\n");

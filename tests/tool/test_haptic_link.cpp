@@ -99,7 +99,7 @@ TEST(HapticLink, ReadsAtOneKilohertzNeverWaitForARunningSimulation) {
   w.add_body(slab());
   ToolDef t;
   t.shape.radius = 0.01;
-  t.keyframes = {{0.0, {0, 0, 0.062}}, {0.5, {0, 0, 0.052}}};
+  t.keyframes = {{0.0, {0, 0, 0.062}}, {0.5, {0, 0, 0.052}}, {1.0, {0, 0, 0.062}}, {1.5, {0, 0, 0.052}}};
   const ToolId tool = w.add_tool(t);
   const HapticLink& link = w.haptic_link(tool);
   std::atomic<bool> stop{false};
@@ -116,7 +116,7 @@ TEST(HapticLink, ReadsAtOneKilohertzNeverWaitForARunningSimulation) {
       if (!std::isfinite(f[0] + f[1] + f[2])) break;
     }
   });
-  while (w.time() < 0.5) w.step();
+  while (w.time() < 2.0) w.step();
   stop = true;
   device.join();
   ASSERT_GT(read_us.size(), 10u);

@@ -86,7 +86,7 @@ TEST_P(ToolCollision, ContactSetEqualsBruteForceOnRandomPosesSizesAndSpeeds) {
   bd.mesh.kind = MeshSourceDef::Kind::file;
   bd.mesh.path = path;
   w.add_body(bd);
-  const Level<double>& L = w.level<double>(0);
+  Level<double>& L = w.level<double>(0);
   const Vec3d origin = w.body_origin(0);
   Executor exec(2);
   detail::EmbreeDevice device;
@@ -109,7 +109,17 @@ TEST_P(ToolCollision, ContactSetEqualsBruteForceOnRandomPosesSizesAndSpeeds) {
   std::uniform_real_distribution<double> u(-1, 1), pos(0, 1);
   std::size_t total_hits = 0, poses = 0, empty = 0;
   std::string error;
+  // The surface moves between queries (a random walk of up to 0.4 margin per vertex and trial,
+  // back to rest every 12 trials), so that the lazy refit is exercised: queries on a BVH whose
+  // vertices moved less than the margin, and refits once one moved more.
+  std::uniform_real_distribution<double> jiggle(-0.4 * lc.margin / std::sqrt(3.0), 0.4 * lc.margin / std::sqrt(3.0));
   for (int trial = 0; trial < 240; ++trial) {
+    if (trial % 12 == 0) {
+      for (int k = 0; k < 3; ++k) L.x[k] = L.X[k];
+    } else {
+      for (std::size_t n = 0; n < L.node_count; ++n)
+        for (int k = 0; k < 3; ++k) L.x[k][n] += jiggle(rng);
+    }
     ToolShapeDef shape;
     shape.kind = trial % 2 ? ToolShapeDef::Kind::capsule : ToolShapeDef::Kind::sphere;
     shape.radius = edge * (0.1 + 3.0 * pos(rng));
@@ -174,7 +184,11 @@ TEST_P(ToolCollision, ContactSetEqualsBruteForceOnRandomPosesSizesAndSpeeds) {
   // The poses exercise contact: most touch something, some touch nothing.
   EXPECT_GT(total_hits, 2 * poses);
   EXPECT_GT(poses - empty, poses / 2);
-  std::printf("%s: %zu poses, %zu contacts in all, %zu poses touching nothing\n", GetParam(), poses, total_hits, empty);
+  // Both paths ran: queries on a BVH refit earlier, and refits.
+  EXPECT_GT(lc.refits, 10);
+  EXPECT_LT(lc.refits, lc.queries);
+  std::printf("%s: %zu poses, %zu contacts in all, %zu poses touching nothing; %lld refits for %lld queries\n", GetParam(),
+              poses, total_hits, empty, static_cast<long long>(lc.refits), static_cast<long long>(lc.queries));
 }
 
 INSTANTIATE_TEST_SUITE_P(ShippedMeshes, ToolCollision,

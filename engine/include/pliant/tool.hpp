@@ -1,5 +1,6 @@
 // What a host reads from and writes to a tool (ToolDef in defs.hpp; docs/tool.md).
 #pragma once
+#include <cstdint>
 #include "pliant/defs.hpp"
 
 namespace pliant {
@@ -21,6 +22,8 @@ struct ToolReading {
   int contacts = 0;            // surface triangles touched (or swept through) in the last step
   int held_nodes = 0;          // nodes the tool moved in the last step
   double max_penetration = 0;  // m, deepest triangle inside the tool after the response
+  std::int64_t refits = 0;     // BVH refits so far, over its levels (a surface is refit only once a
+  std::int64_t queries = 0;    //   vertex moved a quarter edge; queries: contact passes so far)
 };
 
 // The tool's pose at time t (s) along keyframes (position linear, orientation spherical-linear,

@@ -46,6 +46,17 @@ LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int 
   lc.triangles.reserve(L.boundary.size());
   for (const auto& t : L.boundary)
     lc.triangles.push_back({vertex_of[std::size_t(t[0])], vertex_of[std::size_t(t[1])], vertex_of[std::size_t(t[2])]});
+  double edges = 0;
+  for (const auto& t : L.boundary)
+    for (int e = 0; e < 3; ++e) {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double d = double(L.x[k][std::size_t(t[std::size_t(e)])]) - double(L.x[k][std::size_t(t[std::size_t((e + 1) % 3)])]);
+        d2 += d * d;
+      }
+      edges += std::sqrt(d2);
+    }
+  lc.margin = L.boundary.empty() ? 0.0 : 0.25 * edges / (3.0 * double(L.boundary.size()));
   lc.bvh = std::make_unique<SurfaceBvh>(device, lc.triangles, lc.surface_nodes.size());
   float* v = lc.bvh->vertices();
   for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
@@ -63,11 +74,25 @@ LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int 
 template <class T>
 bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeDef& shape, const ToolPose& from,
                         const ToolPose& to, const Vec3d& origin, Executor& exec, std::string& error) {
-  // 1. The BVH follows the surface.
+  // 1. The BVH follows the surface: refit once a vertex has left its box's margin.
   float* vb = lc.bvh->vertices();
-  for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
-    for (int k = 0; k < 3; ++k) vb[4 * i + std::size_t(k)] = float(L.x[k][std::size_t(lc.surface_nodes[i])]);
-  if (!lc.bvh->refit(exec, error)) return false;
+  double moved2 = 0;
+  for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i) {
+    const auto n = std::size_t(lc.surface_nodes[i]);
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = double(L.x[k][n]) - double(vb[4 * i + std::size_t(k)]);
+      d2 += d * d;
+    }
+    moved2 = std::max(moved2, d2);
+  }
+  ++lc.queries;
+  if (moved2 > lc.margin * lc.margin) {
+    for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
+      for (int k = 0; k < 3; ++k) vb[4 * i + std::size_t(k)] = float(L.x[k][std::size_t(lc.surface_nodes[i])]);
+    if (!lc.bvh->refit(exec, error)) return false;
+    ++lc.refits;
+  }
 
   // 2. The tool's axis at the start and end of the window, body frame.
   Vec3d wa0, wb0, wa1, wb1;
@@ -81,7 +106,7 @@ bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeD
   // Embree's boxes are in float: widen the ball by a few float ulps of the coordinates involved.
   const double coord = std::max({std::abs(centre[0]), std::abs(centre[1]), std::abs(centre[2])}) + reach + r;
   const float ball_centre[3] = {float(centre[0]), float(centre[1]), float(centre[2])};
-  lc.bvh->triangles_near(ball_centre, float((reach + r) * (1 + 1e-5) + 1e-6 * coord), lc.candidates);
+  lc.bvh->triangles_near(ball_centre, float((reach + r + lc.margin) * (1 + 1e-5) + 1e-6 * coord), lc.candidates);
 
   // 3. Exact test against the swept volume: within r of what the axis swept.
   const bool moved = norm2(sub(a0, a1)) + norm2(sub(b0, b1)) > 0;

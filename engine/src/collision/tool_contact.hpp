@@ -28,6 +28,11 @@ struct LevelContact {
   std::vector<std::array<double, 3>> push;               // per surface vertex: sum of its displacements
   std::vector<std::int32_t> held_vertices;               // surface vertices moved in the last window
   ToolPose from;                                         // the tool's pose at the start of the window
+  // Lazy refit: the BVH holds the positions of its last refit, and queries are widened by
+  // `margin`; it is refit only once some surface vertex has moved more than `margin` from there
+  // (checking that costs a read of the vertices, a refit ~14 ns per triangle: docs/tool.md).
+  double margin = 0;          // m: a quarter of the mean boundary edge
+  std::int64_t refits = 0, queries = 0;
   // Results of the level's last window.
   Vec3d force{};          // N, world frame
   int contacts = 0;

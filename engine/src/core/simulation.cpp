@@ -279,6 +279,8 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       r.contacts += lc.contacts;
       r.held_nodes += int(lc.held_vertices.size());
       r.max_penetration = std::max(r.max_penetration, lc.max_penetration);
+      r.refits += lc.refits;
+      r.queries += lc.queries;
     }
   }
 
