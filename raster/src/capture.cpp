@@ -306,6 +306,33 @@ std::size_t Frame::bytes() const {
   return n;
 }
 
+// A body with a skin (pliant/skin.hpp) is drawn by its skin: the render surface the host gave,
+// following the simulated mesh, coloured by its own displacement. Fields defined per element
+// (von Mises) or per level are drawn on the tet boundary instead.
+static SurfaceBody capture_skin(const World& world, BodyId b, Field field, std::shared_ptr<const SurfaceTopology>& cached) {
+  if (!cached || !cached->source_node.empty()) {
+    auto topo = std::make_shared<SurfaceTopology>();
+    topo->name = world.body_def(b).name;
+    topo->triangles = world.skin_triangles(b);
+    cached = topo;
+  }
+  SurfaceBody body;
+  body.topology = cached;
+  std::vector<double> now;
+  world.skin_positions(b, now);
+  const std::vector<double>& rest = world.skin_rest_positions(b);
+  body.points.assign(now.begin(), now.end());
+  if (field == Field::displacement) {
+    body.values.resize(now.size() / 3);
+    for (std::size_t i = 0; i < body.values.size(); ++i) {
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) d2 += (now[3 * i + k] - rest[3 * i + k]) * (now[3 * i + k] - rest[3 * i + k]);
+      body.values[i] = float(std::sqrt(d2));
+    }
+  }
+  return body;
+}
+
 Frame capture(const World& world, Field field, CaptureCache* cache) {
   Frame f;
   f.time = world.time();
@@ -314,6 +341,10 @@ Frame capture(const World& world, Field field, CaptureCache* cache) {
   CaptureCache& c = cache ? *cache : local;
   c.bodies.resize(world.body_count());
   for (std::size_t b = 0; b < world.body_count(); ++b) {
+    if (world.has_skin(BodyId(b)) && (field == Field::displacement || field == Field::none)) {
+      f.bodies.push_back(capture_skin(world, BodyId(b), field, c.bodies[b]));
+      continue;
+    }
     if (world.precision() == Precision::float32)
       f.bodies.push_back(capture_body<float>(world, BodyId(b), field, c.bodies[b]));
     else

@@ -145,6 +145,9 @@ struct BodyDef {
   std::vector<RegionDef> fixed;                 // nodes held at their rest position
   std::vector<PrescribedMotionDef> prescribed;  // nodes moved along keyframes
   std::vector<NodalLoadDef> loads;
+  // A render surface bound to the mesh (pliant/skin.hpp): an OBJ file in the units and frame of
+  // the mesh's source (mesh.scale and mesh.translate apply to it too). Empty: none.
+  std::filesystem::path skin;
 };
 
 struct TimeStepDef {

@@ -152,6 +152,16 @@ class World {
   // sit at rest position + offset (m), and their velocity is the offset's rate of change.
   void set_motion_offset(BodyId body, int motion, const Vec3d& offset);
 
+  // ---- skins (pliant/skin.hpp, BodyDef::skin) ----
+  bool has_skin(BodyId body) const;
+  const std::vector<std::array<std::int32_t, 3>>& skin_triangles(BodyId body) const;  // empty without a skin
+  const std::vector<double>& skin_rest_positions(BodyId body) const;  // m, world frame, 3 per vertex
+  // Where the skin's vertices are now (m, world frame, 3 per vertex, into `out`): each follows its
+  // triangle on the finest level that is active there (ghost nodes where their sources are now).
+  void skin_positions(BodyId body, std::vector<double>& out) const;
+  // The farthest any skin vertex is from the level's surface at rest (m): how well it fits the mesh.
+  double skin_max_distance(BodyId body, int level) const;
+
   // ---- tools (docs/tool.md) ----
   // Adds a rigid tool touching the bodies named in def.bodies (all bodies if empty), which must
   // already be in the world: every level of each gets a collision surface (an Embree BVH over its

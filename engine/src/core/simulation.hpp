@@ -16,6 +16,7 @@
 #include "pliant/scheduler/executor.hpp"
 #include "pliant/scheduler/level_schedule.hpp"
 #include "pliant/tool.hpp"
+#include "../collision/skin_binding.hpp"
 #include "../collision/tool_contact.hpp"
 
 namespace pliant::detail {
@@ -41,6 +42,7 @@ struct SimBody {
   std::vector<MotionState> motions;
   // Per level: the factor its elastic moduli were scaled by (multiresolution calibration; 1 = none).
   std::vector<double> stiffness_factors;
+  std::shared_ptr<const SkinState> skin;  // BodyDef::skin bound to every level; null without one
 };
 
 // A tool as the step sees it: its pose source and its contact with every level of every body it

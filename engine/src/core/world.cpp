@@ -14,6 +14,7 @@
 #include "pliant/hierarchy.hpp"
 #include "pliant/mesh_io.hpp"
 #include "pliant/meshing.hpp"
+#include "pliant/skin.hpp"
 #include "simulation.hpp"
 
 namespace pliant {
@@ -371,6 +372,21 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
       tets += L.tet_count;
       detail::prepare_obstacles(L, s.obstacles, def.name, b.origin);
     }
+    if (!def.skin.empty()) {
+      // The skin in the mesh source's frame -> world (the mesh's scale and translate) -> body frame.
+      const SkinSurface surface = read_obj_surface(def.skin);
+      auto skin = std::make_shared<detail::SkinState>();
+      skin->triangles = surface.triangles;
+      skin->rest.resize(surface.points.size());
+      std::vector<double> body_frame(surface.points.size());
+      for (std::size_t i = 0; i < surface.points.size(); ++i) {
+        const std::size_t k = i % 3;
+        skin->rest[i] = def.mesh.scale * surface.points[i] + def.mesh.translate[k];
+        body_frame[i] = skin->rest[i] - b.origin[k];
+      }
+      for (const auto& L : b.levels) skin->levels.push_back(detail::bind_skin(body_frame, L, impl_->exec));
+      b.skin = std::move(skin);
+    }
     s.bodies.push_back(std::move(b));
     s.scratch.reserve(std::max(s.scratch.capacity(), tets));  // reports and the monitor
     return BodyId(s.bodies.size() - 1);
@@ -466,6 +482,55 @@ ToolId World::add_tool(const ToolDef& in) {
     s.tools.push_back(std::move(tool));
     w.haptic.push_back(std::make_unique<HapticLink>());
     return ToolId(s.tools.size() - 1);
+  });
+}
+
+bool World::has_skin(BodyId b) const {
+  return impl_->visit([&](auto& s) { return impl_->body(s, b).skin != nullptr; });
+}
+const std::vector<std::array<std::int32_t, 3>>& World::skin_triangles(BodyId b) const {
+  static const std::vector<std::array<std::int32_t, 3>> none;
+  return impl_->visit([&](auto& s) -> const std::vector<std::array<std::int32_t, 3>>& {
+    const auto& skin = impl_->body(s, b).skin;
+    return skin ? skin->triangles : none;
+  });
+}
+const std::vector<double>& World::skin_rest_positions(BodyId b) const {
+  static const std::vector<double> none;
+  return impl_->visit([&](auto& s) -> const std::vector<double>& {
+    const auto& skin = impl_->body(s, b).skin;
+    return skin ? skin->rest : none;
+  });
+}
+double World::skin_max_distance(BodyId b, int l) const {
+  return impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    (void)impl_->level(s, b, l);
+    return body.skin ? body.skin->levels[std::size_t(l)].max_distance : 0.0;
+  });
+}
+void World::skin_positions(BodyId b, std::vector<double>& out) const {
+  impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    out.clear();
+    if (!body.skin) return;
+    const detail::SkinState& skin = *body.skin;
+    const std::size_t count = skin.rest.size() / 3;
+    out.resize(3 * count);
+    for (std::size_t i = 0; i < count; ++i) {
+      // The finest level whose triangle has no inactive corner (a single level: always it).
+      std::size_t l = body.levels.size() - 1;
+      for (;; --l) {
+        const auto& L = body.levels[l];
+        const auto& t = skin.levels[l].nodes[i];
+        bool active = true;
+        for (std::int32_t n : t) active &= L.state[std::size_t(n)] != kNodeInactive;
+        if (active || l == 0) break;
+      }
+      const auto& L = body.levels[l];
+      const auto p = detail::skin_vertex(skin.levels[l], i, [&](std::int32_t n) { return detail::node_now(body, L, std::size_t(n)); });
+      for (int k = 0; k < 3; ++k) out[3 * i + std::size_t(k)] = body.origin[std::size_t(k)] + p[std::size_t(k)];
+    }
   });
 }
 

@@ -19,7 +19,7 @@ inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "preci
                                                   "camera",    "schedule",  "obstacles", "tools"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
-                                                 "fixed", "prescribed", "loads",    "multiresolution"};
+                                                 "fixed", "prescribed", "loads",    "multiresolution", "skin"};
 inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active"};
 inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",

@@ -380,6 +380,7 @@ BodyDef Reader::body(const Json& j, const std::string& path, std::size_t index) 
     for (std::size_t i = 0; i < array(v, p).size(); ++i) b.loads.push_back(load(v[i], element(p, i)));
   });
   optional(j, path, "multiresolution", [&](const auto& v, const auto& p) { b.multiresolution = multiresolution(v, p); });
+  optional(j, path, "skin", [&](const auto& v, const auto& p) { b.skin = existing_file(v, p, {".obj"}); });
   return b;
 }
 
