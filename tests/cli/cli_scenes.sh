@@ -27,6 +27,11 @@ for s in "$src"/scenes/*.json; do
     fail "$name: summary"; sed 's/^/    /' "$sum" 2>/dev/null | head -25
   fi
   if grep -q '"probes"' "$s"; then [ -s "$work/$name/probes.csv" ] && ok "$name: probes.csv" || fail "$name: probes.csv"; fi
+  if grep -q '"tools"' "$s"; then
+    [ "$(head -n 1 "$work/$name/tools.csv" 2>/dev/null)" = "time,tool,x,y,z,fx,fy,fz,contacts,max_penetration" ] \
+      && [ "$(wc -l < "$work/$name/tools.csv")" -ge 2 ] && [ -s "$work/$name/tools.png" ] \
+      && ok "$name: tools.csv and tools.png" || fail "$name: tools.csv (header, rows) or tools.png"
+  fi
 done
 # The shipped set: the default scene, the cantilever, and the examples of scenes/README.md.
 [ "$found" -ge 7 ] && ok "$found scenes found" || fail "only $found scenes in $src/scenes"
