@@ -71,5 +71,15 @@ check edit_jobs 0 "" -- "$pliant" study "$work/bar.json" --sweep 'bodies[0].mesh
 echo " " >> "$work/bar.json"
 check edited_scene 2 "changed since the job list was written" -- bash -c "$(head -n 1 "$work/edit.txt")"
 
+# A scene without a reference file runs anyway (issue 11 §5): the probes against the finest run,
+# with a note, in columns named with their unit; collected from a job list, the note comes with it.
+cp "$bar" "$work/noref.json"
+check no_reference 0 "note: no reference file .*noref\.reference\.json: measuring the displacement of probe tip" -- \
+  "$pliant" study "$work/noref.json" --sweep 'duration=0.05' --sweep 'bodies[0].mesh.box.cells=[10,1,1]|[20,1,1]' --out "$work/noref"
+head -n 1 "$work/noref/study.csv" | grep -q ",tip_displacement_m,tip_displacement_reference_m,tip_displacement_error," \
+  && ok "no-reference columns" || fail "no-reference columns: $(head -n 1 "$work/noref/study.csv")"
+check no_reference_jobs 0 "" -- "$pliant" study "$work/noref.json" --sweep 'duration=0.05' --out "$work/noref_jobs" --parallel 1
+grep -q "note: no reference file" "$work/no_reference_jobs.out" && ok "collected study keeps the note" || fail "collected study keeps the note"
+
 echo "$passed passed, $failed failed"
 [ "$failed" -eq 0 ]
