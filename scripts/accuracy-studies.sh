@@ -102,6 +102,9 @@ each other count as equal, so that a difference in the 6th digit does not make a
 ```
 pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|finest|FILE]
                    [--measure JSON] [--out DIR] [--threads N] [--cost wall|tet-steps] [--quiet]
+                   [--jobs FILE | --parallel N]
+pliant study --out DIR --run K          # one run of a job list (what each line of FILE is)
+pliant study --collect DIR              # study.csv, study.md and the plots from DIR's run folders
 ```
 
 - `PATH` addresses any value of the scene, as in `apply_scene_overrides`
@@ -116,14 +119,17 @@ pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|fin
   the others; that run is marked `reference_run` and left out of the front. `--reference VALUE`
   sets the reference of a single quantity, `--reference FILE` reads another reference file.
   `--measure JSON` replaces the reference file's quantities by one measure (then give
-  `--reference VALUE` or `finest`).
+  `--reference VALUE` or `finest`). A scene with no reference file beside it runs anyway: the
+  length of each probe's displacement at the end of the run (`PROBE_displacement`, m) against the
+  finest run, and a note says so; without probes it is an error that says what to give.
 - Output: a progress line per run on stderr, then `DIR/study.csv` (default `study/`), one row per run:
   `run`, one column per sweep (named by its path; strings unquoted), `status` (`ok`, `diverged`,
   `invalid`), `run_model`, `run_precision`, `run_threads` (what the run used), `nodes`, `tets`,
   `dt`, `steps`, `substeps`,
   `simulated_time`, `setup_s` (building the world), `wall_s` (stepping only, measurements excluded),
-  `repeats`, `wall_per_sim_s`, `tet_steps`, then `NAME_value`, `NAME_reference`, `NAME_error` per
-  quantity (relative: value/reference − 1; value − reference when the reference is 0), `error`
+  `repeats`, `wall_per_sim_s`, `tet_steps`, then per quantity its value `NAME_UNIT` and reference
+  `NAME_reference_UNIT` (e.g. `bar_speed_m_per_s`, `tip_z_m`; `NAME` alone when it has no unit) and
+  `NAME_error` (relative: value/reference − 1; value − reference when the reference is 0), `error`
   (the largest |error| over the quantities: the accuracy of the front), `pareto` (1 on the front),
   `reference_run`, `message` (the divergence). `DIR/study.md` holds the tables of this page.
 - Plots (PNG drawn in software, with libpng only: no display needed; 800 × 600 pixels per
@@ -148,6 +154,39 @@ pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|fin
   not timer noise; the repeats must measure bitwise the same values. A diverged run is recorded
   (`status` diverged, no value) and the study goes on. Exit status: 0, or 2 when a world could not
   be built (`invalid`).
+
+### One machine, several processes, or a cluster
+
+The runs of a study are independent processes; the three ways below give the same `study.csv`
+(bit for bit but the timing columns `setup_s`, `wall_s`, `repeats`, `wall_per_sim_s`; with
+`--cost tet-steps` the same front too — `tests/cli/cli_study_jobs.sh` and
+`tests/study/test_study_jobs.cpp` check it).
+
+```sh
+# In one process, one run after the other (the default):
+pliant study scenes/validation/slender_bar.json --sweep 'bodies[0].mesh.box.cells=[20,1,1]|[40,2,2]|[80,4,4]' \
+             --sweep 'bodies[0].model="linear"|"corotational"' --out out/bar
+
+# N processes on this machine (a job list in out/bar/jobs.txt, run 2 at a time, then collected):
+pliant study scenes/validation/slender_bar.json --sweep ... --out out/bar --parallel 2
+
+# A job list: one shell command per run, absolute paths, runnable from any directory; run the
+# lines anywhere, in any order, then collect.
+pliant study scenes/validation/slender_bar.json --sweep ... --out /shared/bar --jobs /shared/bar/jobs.txt
+parallel -j 8 < /shared/bar/jobs.txt                                     # GNU parallel, one host
+sbatch --array=1-$(wc -l < /shared/bar/jobs.txt) scripts/study-slurm.sh /shared/bar/jobs.txt   # Slurm
+pliant study --collect /shared/bar
+```
+
+Line K of the job list is `'/abs/pliant' study --out '/abs/DIR' --run K  # settings`; it re-reads
+the study from `DIR/study.json` (written with the list) and writes `DIR/runs/000K/run.json`
+(whole or not at all). `--collect DIR` refuses to assemble a study with runs missing (it lists
+them) or whose scene or reference file changed since the list was written. On a cluster, DIR, the
+scene and its meshes and the pliant binary must be on a file system the nodes share; the template
+`scripts/study-slurm.sh` runs one line per array task (edit its `#SBATCH` lines for your site).
+Wall costs measured while several runs share a machine are slower than alone: for a front of wall
+cost, run at most one process per core (`--parallel` no larger than the cores), or use
+`--cost tet-steps`.
 
 ## Reference files
 

@@ -8,6 +8,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev libfmt-dev zlib1g-dev
   libosmesa6-dev libpng-dev libembree-dev
+  parallel  # GNU parallel: tests/cli/cli_study_jobs.sh runs a study's job list through it
 )
 missing=()
 for p in "${packages[@]}"; do

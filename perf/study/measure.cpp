@@ -85,7 +85,7 @@ class Observer {
       for (std::size_t p = 0; p < world.probe_count(); ++p)
         if (world.probe_name(int(p)) == m.probe) probe_ = int(p);
       for (const ProbeDef& p : scene.probes)
-        if (p.name == m.probe) rest_ = p.point[std::size_t(m.axis)];
+        if (p.name == m.probe) rest_ = p.point;
     } else {
       body_ = m.body.empty() ? 0 : world.find_body(m.body);
       for (std::size_t n = 0; n < world.node_count(body_); ++n)
@@ -105,7 +105,14 @@ class Observer {
   void sample(const World& w) {
     if (is_probe_kind()) {
       t_.push_back(w.time());
-      y_.push_back(w.probe_position(probe_)[std::size_t(m_.axis)] - rest_);
+      const Vec3d x = w.probe_position(probe_);
+      if (m_.axis == kDisplacementLength) {  // |u| (m)
+        double s = 0;
+        for (std::size_t a = 0; a < 3; ++a) s += (x[a] - rest_[a]) * (x[a] - rest_[a]);
+        y_.push_back(std::sqrt(s));
+      } else {
+        y_.push_back(x[std::size_t(m_.axis)] - rest_[std::size_t(m_.axis)]);
+      }
     } else if (m_.from && w.time() + 1e-12 >= next_sample_) {
       body_values_.push_back(body_value(w));
       while (next_sample_ <= w.time() + 1e-12) next_sample_ += every_ > 0 ? every_ : 1e300;
@@ -183,7 +190,7 @@ class Observer {
   MeasureDef m_;
   double duration_;
   int probe_ = -1;
-  double rest_ = 0;
+  Vec3d rest_{};  // the probe's point (m)
   BodyId body_ = 0;
   std::vector<std::size_t> nodes_;
   std::vector<double> t_, y_, body_values_;

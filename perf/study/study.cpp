@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -75,7 +76,55 @@ std::string md_abs_error(double e) {
 }
 std::string md_cost(double v) { return std::isnan(v) ? "—" : fmt::format("{:.3g}", v); }
 
+// A unit as part of a CSV column name: "m/s" -> "m_per_s", "kg m^2" -> "kg_m2".
+std::string unit_suffix(const std::string& unit) {
+  std::string out;
+  for (std::size_t i = 0; i < unit.size(); ++i) {
+    const char c = unit[i];
+    if (c == '/') out += "_per_";
+    else if (std::isalnum(static_cast<unsigned char>(c))) out += c;
+    else if (c == ' ' || c == '*' || c == '.') out += '_';
+  }
+  return out;
+}
+
+// NAME_UNIT, or NAME without a unit.
+std::string with_unit(const std::string& name, const std::string& unit) {
+  const std::string u = unit_suffix(unit);
+  return u.empty() ? name : name + "_" + u;
+}
+
 }  // namespace
+
+QuantityDef quantity_for_measure(const MeasureDef& m) {
+  static const char* const kAxis[] = {"x", "y", "z", "displacement"};
+  QuantityDef q;
+  q.measure = m;
+  const std::string probe = m.probe + "_" + kAxis[std::clamp(m.axis, 0, 3)];
+  const std::string body = (m.body.empty() ? std::string("body") : m.body) + "_";
+  switch (m.kind) {
+    case MeasureKind::probe_final: q.name = probe, q.unit = "m"; break;
+    case MeasureKind::probe_mean: q.name = probe + "_mean", q.unit = "m"; break;
+    case MeasureKind::probe_period:
+      if (m.report == "frequency") q.name = probe + "_frequency", q.unit = "Hz";
+      else if (m.report == "speed") q.name = probe + "_speed", q.unit = "m/s";
+      else q.name = probe + "_period", q.unit = "s";
+      break;
+    case MeasureKind::probe_arrival:
+      if (m.report == "speed") q.name = probe + "_speed", q.unit = "m/s";
+      else q.name = probe + "_arrival", q.unit = "s";
+      break;
+    case MeasureKind::strain: q.name = body + "strain_" + kAxis[std::clamp(m.axis, 0, 2)]; break;
+    case MeasureKind::poisson_ratio: q.name = body + "poisson_ratio"; break;
+    case MeasureKind::volume_change: q.name = body + "volume_change"; break;
+  }
+  // A scale (or an expression of one) makes it another quantity whose unit we cannot know.
+  if (m.scale != 1 || m.expressions.count("scale")) q.name += "_scaled", q.unit.clear();
+  // Names go into CSV columns: no spaces, commas or quotes.
+  for (char& c : q.name)
+    if (c == ' ' || c == ',' || c == '"') c = '_';
+  return q;
+}
 
 std::vector<bool> pareto_front(const std::vector<double>& cost, const std::vector<double>& error, double tolerance) {
   const std::size_t n = std::min(cost.size(), error.size());
@@ -131,9 +180,10 @@ void finish_study(StudyResult& s) {
   for (std::size_t i = 0; i < s.runs.size(); ++i) s.runs[i].pareto = front[i];
 }
 
-StudyResult run_study(const StudyOptions& o) {
-  StudyResult s;
-  s.scene = o.scene.string();
+PreparedStudy prepare_study(const StudyOptions& o) {
+  PreparedStudy prepared;
+  StudyResult& s = prepared.result;
+  s.scene = o.scene_label.empty() ? o.scene.string() : o.scene_label;
   s.cost = o.cost;
   const std::string source = o.scene.string();
   const std::string text = read_text(o.scene);
@@ -151,23 +201,43 @@ StudyResult run_study(const StudyOptions& o) {
   ReferenceFile ref;
   const bool finest = o.reference == "finest";
   const std::optional<double> value = as_number(o.reference);
+  bool probes_against_finest = false;
   if (!o.measure.empty()) {
-    QuantityDef q;
-    q.measure = parse_measure(o.measure, "--measure");
-    ref.quantities.push_back(q);
+    ref.quantities.push_back(quantity_for_measure(parse_measure(o.measure, "--measure")));
     ref.source = "--measure";
   } else if (!o.reference.empty() && !finest && !value) {
     ref = load_reference_file(o.reference);
   } else {
     const fs::path side = reference_path_for(o.scene);
-    if (!fs::exists(side))
-      throw InputError(fmt::format("{}: no reference file {} beside the scene: give --measure JSON with --reference "
-                                   "VALUE|finest, or --reference FILE", source, side.string()));
-    ref = load_reference_file(side);
+    if (fs::exists(side)) {
+      ref = load_reference_file(side);
+    } else {
+      // No reference file: measure what the scene names, its probes (the length of each one's
+      // displacement at the end), and compare the runs with the finest. Cost and values are still
+      // worth having; the error is convergence, not accuracy.
+      const SceneDef scene = parse_scene(text, source, base_dir);
+      if (scene.probes.empty())
+        throw InputError(fmt::format("{}: no reference file {} beside the scene and no probes to measure: add probes "
+                                     "to the scene, or give --measure JSON with --reference VALUE|finest, or --reference FILE",
+                                     source, side.string()));
+      for (const ProbeDef& p : scene.probes) {
+        MeasureDef m;
+        m.kind = MeasureKind::probe_final;
+        m.probe = p.name;
+        m.axis = kDisplacementLength;
+        ref.quantities.push_back(quantity_for_measure(m));
+      }
+      ref.source = source + " (its probes)";
+      probes_against_finest = !value;
+      s.notes.push_back(fmt::format("no reference file {}: measuring the displacement of {} at the end against {}",
+                                    side.string(), scene.probes.size() == 1 ? "probe " + scene.probes[0].name
+                                                                            : fmt::format("the {} probes", scene.probes.size()),
+                                    value ? "--reference " + o.reference : "the finest run"));
+    }
   }
   s.description = ref.description;
   s.quantities = ref.quantities;
-  if (finest) {
+  if (finest || probes_against_finest) {
     s.reference_kind = "finest";
   } else if (value) {
     if (s.quantities.size() != 1)
@@ -185,15 +255,8 @@ StudyResult run_study(const StudyOptions& o) {
   }
 
   // Every scene of the grid is edited, parsed and checked before anything runs.
-  struct Point {
-    SceneDef scene;
-    std::vector<QuantityDef> quantities;  // measures resolved with this scene's variables
-    std::vector<std::string> settings;
-    std::vector<double> references;
-  };
-  std::vector<Point> points;
   for (const auto& overrides : expand_grid(s.sweeps)) {
-    Point p;
+    StudyPoint p;
     std::string edited;
     for (std::size_t k = 0; k < overrides.size(); ++k) p.settings.push_back(overrides[k].substr(s.sweeps[k].path.size() + 1));
     const std::string label = settings_label(s.sweeps, p.settings);
@@ -213,64 +276,83 @@ StudyResult run_study(const StudyOptions& o) {
                                  ? kNaN
                                  : evaluate_expression(q.reference, vars, ref.source + ": " + q.name + ".reference"));
     }
-    points.push_back(std::move(p));
+    prepared.points.push_back(std::move(p));
   }
+  return prepared;
+}
 
+RunRecord run_point(const PreparedStudy& prepared, std::size_t i, const StudyOptions& o) {
+  const StudyPoint& point = prepared.points.at(i);
+  RunRecord r = run_measured(point.scene, point.quantities, o.threads);
+  double spent = r.wall_s;
+  for (int rep = 1; r.status == "ok" && rep < 5 && spent < o.min_time; ++rep) {
+    const RunRecord again = run_measured(point.scene, point.quantities, o.threads);
+    spent += again.wall_s;
+    bool same = again.status == r.status && again.values.size() == r.values.size();
+    for (std::size_t q = 0; same && q < r.values.size(); ++q)
+      same = std::memcmp(&again.values[q], &r.values[q], sizeof(double)) == 0;
+    if (!same) r.message = "a repeat of this run measured different values: not deterministic";
+    r.wall_s = std::min(r.wall_s, again.wall_s);
+    r.repeats = rep + 1;
+  }
+  r.settings = point.settings;
+  r.references = point.references;
+  return r;
+}
+
+std::string progress_line(const StudyResult& s, const RunRecord& r, std::size_t i, std::size_t n) {
+  std::string line =
+      fmt::format("[{}/{}] {}: ", i + 1, n, s.sweeps.empty() ? std::string("the scene") : settings_label(s.sweeps, r.settings));
+  if (r.status != "ok") {
+    line += r.status + (r.message.empty() ? "" : " (" + r.message + ")");
+  } else {
+    for (std::size_t q = 0; q < s.quantities.size() && q < r.values.size(); ++q) {
+      line += fmt::format("{}{} = {:.6g}", q ? ", " : "", s.quantities[q].name, r.values[q]);
+      if (q < r.references.size() && !std::isnan(r.references[q]))
+        line += fmt::format(" (ref {:.6g}, {})", r.references[q], md_error(relative_error(r.values[q], r.references[q])));
+    }
+  }
+  line += fmt::format("; {} tets, {} steps, {:.2f} s wall ({:.3g} s per simulated s)", r.tets, r.steps, r.wall_s,
+                      r.wall_per_sim());
+  return line;
+}
+
+void write_study_files(StudyResult& s, const fs::path& out_dir) {
+  fs::create_directories(out_dir);
+  const std::pair<const char*, std::string> files[] = {{"study.csv", study_csv(s)}, {"study.md", study_markdown(s)}};
+  for (const auto& [name, content] : files) {
+    std::ofstream out(out_dir / name);
+    if (!out) throw InputError(fmt::format("{}: cannot write", (out_dir / name).string()));
+    out << content;
+    s.files.push_back((out_dir / name).string());
+  }
+}
+
+StudyResult run_study(const StudyOptions& o) {
+  PreparedStudy prepared = prepare_study(o);
+  StudyResult& s = prepared.result;
+  if (o.progress)
+    for (const std::string& note : s.notes) o.progress("pliant: note: " + note);
   const auto t0 = std::chrono::steady_clock::now();
-  for (std::size_t i = 0; i < points.size(); ++i) {
-    RunRecord r = run_measured(points[i].scene, points[i].quantities, o.threads);
-    double spent = r.wall_s;
-    for (int rep = 1; r.status == "ok" && rep < 5 && spent < o.min_time; ++rep) {
-      const RunRecord again = run_measured(points[i].scene, points[i].quantities, o.threads);
-      spent += again.wall_s;
-      bool same = again.status == r.status && again.values.size() == r.values.size();
-      for (std::size_t q = 0; same && q < r.values.size(); ++q)
-        same = std::memcmp(&again.values[q], &r.values[q], sizeof(double)) == 0;
-      if (!same) r.message = "a repeat of this run measured different values: not deterministic";
-      r.wall_s = std::min(r.wall_s, again.wall_s);
-      r.repeats = rep + 1;
-    }
-    r.settings = points[i].settings;
-    r.references = points[i].references;
-    if (o.progress) {
-      std::string line = fmt::format("[{}/{}] {}: ", i + 1, points.size(),
-                                     s.sweeps.empty() ? std::string("the scene") : settings_label(s.sweeps, r.settings));
-      if (r.status != "ok") {
-        line += r.status + (r.message.empty() ? "" : " (" + r.message + ")");
-      } else {
-        for (std::size_t q = 0; q < s.quantities.size(); ++q) {
-          line += fmt::format("{}{} = {:.6g}", q ? ", " : "", s.quantities[q].name, r.values[q]);
-          if (!std::isnan(r.references[q]))
-            line += fmt::format(" (ref {:.6g}, {})", r.references[q], md_error(relative_error(r.values[q], r.references[q])));
-        }
-      }
-      line += fmt::format("; {} tets, {} steps, {:.2f} s wall ({:.3g} s per simulated s)", r.tets, r.steps, r.wall_s,
-                          r.wall_per_sim());
-      o.progress(line);
-    }
+  for (std::size_t i = 0; i < prepared.points.size(); ++i) {
+    RunRecord r = run_point(prepared, i, o);
+    if (o.progress) o.progress(progress_line(s, r, i, prepared.points.size()));
     s.runs.push_back(std::move(r));
   }
   s.wall_total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   finish_study(s);
-
-  if (o.write_files) {
-    fs::create_directories(o.out_dir);
-    const std::pair<const char*, std::string> files[] = {{"study.csv", study_csv(s)}, {"study.md", study_markdown(s)}};
-    for (const auto& [name, content] : files) {
-      std::ofstream out(o.out_dir / name);
-      if (!out) throw InputError(fmt::format("{}: cannot write", (o.out_dir / name).string()));
-      out << content;
-      s.files.push_back((o.out_dir / name).string());
-    }
-  }
-  return s;
+  if (o.write_files) write_study_files(s, o.out_dir);
+  return std::move(s);
 }
 
 std::string study_csv(const StudyResult& s) {
   std::string out = "run";
   for (const Sweep& sw : s.sweeps) out += "," + csv_field(sw.path);
   out += ",status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps";
-  for (const QuantityDef& q : s.quantities) out += fmt::format(",{0}_value,{0}_reference,{0}_error", q.name);
+  // Per quantity: its value and reference named with their unit (tip_z_m, tip_z_reference_m),
+  // and the relative error (no unit).
+  for (const QuantityDef& q : s.quantities)
+    out += fmt::format(",{},{},{}_error", with_unit(q.name, q.unit), with_unit(q.name + "_reference", q.unit), q.name);
   out += ",error,pareto,reference_run,message\n";
   for (std::size_t i = 0; i < s.runs.size(); ++i) {
     const RunRecord& r = s.runs[i];

@@ -90,7 +90,7 @@ check bad_precision 2 "precision" -- "$pliant" run "$work/good.json" --precision
 # info and mesh on a small volume mesh written by pliant itself.
 check mesh_convert_needs_input 2 "" -- "$pliant" mesh -o "$work/x.vtu"
 "$pliant" run "$work/good.json" --out "$work/out4" -q
-check info_vtu 0 "nodes 81  tets 192" -- "$pliant" info "$work/out4/vtu/b_00000.vtu"
+check info_vtu 0 "nodes 81  tets 160" -- "$pliant" info "$work/out4/vtu/b_00000.vtu"
 check info_stable_dt 0 "stable dt" -- "$pliant" info "$work/out4/vtu/b_00000.vtu" --young 1e5
 check info_missing 2 "absent.vtu" -- "$pliant" info "$work/absent.vtu"
 # Only regular files are read: a FIFO named .msh made `info` wait forever, a link to /dev/zero was
@@ -109,7 +109,7 @@ check study_fifo_scene 2 "fifo\.json: is a FIFO" -- limited "$pliant" study "$wo
 check mesh_dev_zero 2 "zero\.stl: is a character device|built without CGAL" -- limited "$pliant" mesh "$work/zero.stl" --cell-size 0.1 -o "$work/x.vtu"
 scene fifo_mesh "{\"bodies\": [{\"mesh\": {\"file\": \"fifo.msh\"}}]}"
 check scene_fifo_mesh 2 "fifo\.msh: is a FIFO" -- limited "$pliant" run "$work/fifo_mesh.json" --out "$work/o"
-check mesh_convert 0 "81 nodes, 192 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
+check mesh_convert 0 "81 nodes, 160 tets" -- "$pliant" mesh "$work/out4/vtu/b_00000.vtu" -o "$work/copy.vtu"
 # Meshing a closed surface (STL and PLY, written here: a unit cube of 12 triangles) and an implicit
 # shape, when the build has CGAL (`mesh --help` lists --implicit in every build: ask the mesher).
 if ! "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" 2>&1 | grep -q "without CGAL"; then

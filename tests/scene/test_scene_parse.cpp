@@ -141,6 +141,18 @@ TEST(SceneParse, FullExample) {
   EXPECT_DOUBLE_EQ(s.output.probe_every, 0.01);
 }
 
+// Boxes: 5 tets per cell unless the scene says otherwise, 6 for a multiresolution body (its box
+// levels nest exactly only with Kuhn cells); an explicit value always wins (issue 11 §5).
+TEST(SceneParse, TetsPerCellDefaultsToFiveButSixForMultiresolution) {
+  auto tpc = [](const std::string& body) {
+    return parse_scene(R"({"bodies": [)" + body + "]}", "t.json", "").bodies.at(0).mesh.tets_per_cell;
+  };
+  EXPECT_EQ(tpc(R"({"mesh": {"box": {"cells": [4, 2, 2]}}})"), 5);
+  EXPECT_EQ(tpc(R"({"mesh": {"box": {"cells": [4, 2, 2], "tets_per_cell": 6}}})"), 6);
+  EXPECT_EQ(tpc(R"({"mesh": {"box": {"cells": [4, 2, 2]}}, "multiresolution": {"levels": 2}})"), 6);
+  EXPECT_EQ(tpc(R"({"mesh": {"box": {"cells": [4, 2, 2], "tets_per_cell": 5}}, "multiresolution": {"levels": 2}})"), 5);
+}
+
 TEST(SceneParse, DefaultsWhenKeysAbsent) {
   const SceneDef s = parse_scene(R"({"bodies": [{"mesh": {"box": {}}}]})", "d.json", "");
   const SceneDef d;
@@ -158,7 +170,7 @@ TEST(SceneParse, DefaultsWhenKeysAbsent) {
   EXPECT_EQ(b.mesh.min, db.mesh.min);
   EXPECT_EQ(b.mesh.max, db.mesh.max);
   EXPECT_EQ(b.mesh.cells, db.mesh.cells);
-  EXPECT_EQ(b.mesh.tets_per_cell, 6);
+  EXPECT_EQ(b.mesh.tets_per_cell, 5);  // a scene's box: 5 tets per cell unless it says otherwise
   EXPECT_EQ(b.mesh.scale, 1.0);
   EXPECT_EQ(b.material.young, db.material.young);
   EXPECT_EQ(b.material.poisson, db.material.poisson);

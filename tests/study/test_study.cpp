@@ -267,7 +267,7 @@ TEST(Report, CsvColumnsAndRows) {
   std::getline(in, header);
   EXPECT_EQ(header,
             "run,bodies[0].mesh.box.cells,bodies[0].model,status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,"
-            "simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps,speed_value,speed_reference,speed_error,"
+            "simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps,speed,speed_reference,speed_error,"
             "error,pareto,reference_run,message");
   std::getline(in, row1);
   std::getline(in, row2);
@@ -324,12 +324,13 @@ TEST(Study, BadOverridesAndReferencesFailBeforeAnyRun) {
   o.measure = R"({"kind": "probe_final", "probe": "nope", "axis": "z"})";
   o.reference = "finest";
   EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("no probe named \"nope\"; probes: tip"));
-  // A scene without a reference file beside it.
-  write(dir / "plain.json", read(kValidation / "slender_bar.json"));
+  // A scene without a reference file beside it and without probes: nothing to measure.
+  write(dir / "plain.json", R"({"bodies": [{"mesh": {"box": {"min": [0,0,0], "max": [1,0.1,0.1], "cells": [4,1,1]}}}]})");
   o.scene = dir / "plain.json";
   o.measure = "";
   o.reference = "";
-  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("no reference file"));
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("no reference file " + (dir / "plain.reference.json").string() +
+                                                         " beside the scene and no probes to measure"));
   // A scene that is a FIFO: refused without being opened (its open waited for a writer).
   const special::Fifo fifo(dir / "fifo.json");
   o.scene = fifo.path();
@@ -374,6 +375,60 @@ TEST(Study, TinySlenderBarStudy) {
   int front = 0;
   for (const RunRecord& r : s.runs) front += r.pareto;
   EXPECT_GE(front, 1);
+}
+
+TEST(Study, QuantitiesAreNamedAfterTheirMeasureWithUnits) {
+  auto named = [](const std::string& json) {
+    const QuantityDef q = quantity_for_measure(parse_measure(json, "--measure"));
+    return q.name + " [" + q.unit + "]";
+  };
+  EXPECT_EQ(named(R"({"kind": "probe_final", "probe": "tip", "axis": "z"})"), "tip_z [m]");
+  EXPECT_EQ(named(R"({"kind": "probe_mean", "probe": "tip", "axis": "x"})"), "tip_x_mean [m]");
+  EXPECT_EQ(named(R"({"kind": "probe_period", "probe": "tip", "axis": "z"})"), "tip_z_period [s]");
+  EXPECT_EQ(named(R"({"kind": "probe_period", "probe": "tip", "axis": "z", "report": "frequency"})"), "tip_z_frequency [Hz]");
+  EXPECT_EQ(named(R"({"kind": "probe_arrival", "probe": "end", "axis": "x", "level": 1e-4, "report": "speed", "distance": 1})"),
+            "end_x_speed [m/s]");
+  EXPECT_EQ(named(R"({"kind": "strain", "body": "bar", "axis": "y"})"), "bar_strain_y []");
+  EXPECT_EQ(named(R"({"kind": "volume_change"})"), "body_volume_change []");
+  EXPECT_EQ(named(R"({"kind": "probe_final", "probe": "tip", "axis": "z", "scale": 1000})"), "tip_z_scaled []");
+  // In study.csv: the value and the reference carry the unit, the relative error none.
+  StudyResult s;
+  s.quantities = {quantity_for_measure(parse_measure(R"({"kind": "probe_period", "probe": "end", "axis": "x", "report": "speed", "distance": 1})", "m"))};
+  EXPECT_THAT(study_csv(s), HasSubstr(",tet_steps,end_x_speed_m_per_s,end_x_speed_reference_m_per_s,end_x_speed_error,error,"));
+}
+
+// A scene without a reference file runs anyway: the length of each probe's displacement at the
+// end, against the finest run (issue 11 §5).
+TEST(Study, WithoutAReferenceFileTheProbesAgainstTheFinestRun) {
+  const fs::path dir = temp_dir("no_reference");
+  write(dir / "bar.json", read(kValidation / "slender_bar.json"));
+  StudyOptions o;
+  o.scene = dir / "bar.json";
+  o.sweeps = {"duration=0.05", "bodies[0].mesh.box.cells=[10,1,1]|[20,1,1]"};
+  o.out_dir = dir / "study";
+  o.min_time = 0;
+  std::vector<std::string> lines;
+  o.progress = [&](const std::string& l) { lines.push_back(l); };
+  const StudyResult s = run_study(o);
+  EXPECT_EQ(s.reference_kind, "finest");
+  ASSERT_EQ(s.quantities.size(), 1u);
+  EXPECT_EQ(s.quantities[0].name, "tip_displacement");
+  EXPECT_EQ(s.quantities[0].unit, "m");
+  ASSERT_EQ(s.notes.size(), 1u);
+  EXPECT_THAT(s.notes[0], HasSubstr("no reference file " + (dir / "bar.reference.json").string() +
+                                    ": measuring the displacement of probe tip at the end against the finest run"));
+  ASSERT_FALSE(lines.empty());
+  EXPECT_EQ(lines[0], "pliant: note: " + s.notes[0]);
+  ASSERT_EQ(s.runs.size(), 2u);
+  EXPECT_EQ(s.finest, 1);
+  for (const RunRecord& r : s.runs) EXPECT_EQ(r.status, "ok");
+  // The front (c = 31.6 m/s) reaches the free end of the 1 m bar at 0.032 s, which then jumps to
+  // twice the 0.1 mm imposed at the other end (measured at 0.05 s: 1.936e-4 m on 20x1x1, 2.148e-4
+  // m on 10x1x1, +11.0% from the finest).
+  EXPECT_NEAR(s.runs[1].values[0], 2e-4, 0.2e-4);
+  EXPECT_EQ(s.runs[1].errors[0], 0);
+  EXPECT_NEAR(s.runs[0].errors[0], 0.11, 0.02);
+  EXPECT_THAT(read(dir / "study" / "study.csv"), HasSubstr(",tip_displacement_m,tip_displacement_reference_m,tip_displacement_error,"));
 }
 
 TEST(Study, MeasureAndFinestReference) {

@@ -65,7 +65,9 @@ struct MeshSourceDef {
   // box
   Vec3d min{0, 0, 0}, max{1, 0.1, 0.1};
   std::array<int, 3> cells{10, 1, 1};
-  int tets_per_cell = 6;  // 5 or 6
+  // 5 or 6. A scene file's box without the key gets 5 (6 for a multiresolution body, whose box
+  // levels nest exactly only with 6); a host filling this struct in code chooses (default 6).
+  int tets_per_cell = 6;
   // file (volume mesh) or surface (closed triangle surface meshed by CGAL); absolute after loading
   std::filesystem::path path;
   // surface or implicit: target cell size (m) of the body as simulated, after scale (the mesher

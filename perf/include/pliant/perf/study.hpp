@@ -57,11 +57,15 @@ enum class MeasureKind {
 };
 const char* to_string(MeasureKind k);
 
+// MeasureDef::axis of a probe measure that takes the length of the displacement, |u| (m): what a
+// study without a reference file measures at each probe.
+constexpr int kDisplacementLength = 3;
+
 struct MeasureDef {
   MeasureKind kind = MeasureKind::probe_final;
   std::string probe;                 // probe kinds: the probe's name
   std::string body;                  // body kinds: the body's name ("" = the first body)
-  int axis = 0;                      // 0, 1, 2 for "x", "y", "z"
+  int axis = 0;                      // 0, 1, 2 for "x", "y", "z"; probe kinds: kDisplacementLength
   std::vector<int> lateral;          // poisson_ratio: the lateral axes (default: the other two)
   std::optional<std::array<Vec3d, 2>> region;  // body kinds: rest-position box (default: all nodes)
   std::string report;                // probe_period: period|frequency|speed; probe_arrival: time|speed
@@ -95,6 +99,11 @@ struct QuantityDef {
   MeasureDef measure;
   std::string reference;             // an expression (a number is one); empty: none
 };
+
+// A quantity named after what its measure is, with its unit, for a measure given alone
+// (--measure, or the probes of a scene without a reference file): "tip_z" (m), "tip_z_period" (s),
+// "tip_z_frequency" (Hz), "tip_displacement" (m, the length), "bar_strain_x", "bar_volume_change".
+QuantityDef quantity_for_measure(const MeasureDef& m);
 
 // SCENE.reference.json: {"description", "variables": {NAME: number | "scene.path" |
 // {"path", "default"} | {"expr"}}, "quantities": [{"name", "unit", "measure": {...},
@@ -179,6 +188,7 @@ enum class CostKind { wall, tet_steps };
 
 struct StudyOptions {
   std::filesystem::path scene;
+  std::string scene_label;             // how the reports name the scene ("" = `scene`)
   std::vector<std::string> sweeps;     // `PATH=V1|V2|...`
   // "" = the reference file beside the scene; "finest" = the measured value of the finest run;
   // a number = that reference (one quantity only); anything else = a reference file.
@@ -197,6 +207,7 @@ struct StudyOptions {
 
 struct StudyResult {
   std::string scene;                   // as given
+  std::vector<std::string> notes;      // what the study chose for the user (e.g. no reference file)
   std::string description;
   std::vector<Sweep> sweeps;
   std::vector<QuantityDef> quantities;
@@ -210,6 +221,27 @@ struct StudyResult {
 
 // Runs the whole grid. Bad sweeps, references or scene values throw InputError before any run.
 StudyResult run_study(const StudyOptions& options);
+
+// run_study in its parts, for studies whose runs are separate processes (study_jobs.hpp).
+// A point of the grid: its edited scene, its measures resolved with that scene's variables.
+struct StudyPoint {
+  SceneDef scene;
+  std::vector<QuantityDef> quantities;
+  std::vector<std::string> settings;   // one JSON value per sweep
+  std::vector<double> references;      // per quantity (NaN with reference "finest")
+};
+struct PreparedStudy {
+  StudyResult result;                  // everything but the runs
+  std::vector<StudyPoint> points;      // in grid order (the last sweep fastest)
+};
+// Parses the sweeps, the reference and every scene of the grid (InputError before anything runs).
+PreparedStudy prepare_study(const StudyOptions& options);
+// Runs point i (repeated while shorter than options.min_time), with its settings and references.
+RunRecord run_point(const PreparedStudy& prepared, std::size_t i, const StudyOptions& options);
+// "[3/8] cells=[20,1,1]: tip_z = -0.0123 (ref -0.0125, -1.6%); 80 tets, 400 steps, ..."
+std::string progress_line(const StudyResult& result, const RunRecord& run, std::size_t i, std::size_t n);
+// DIR/study.csv and DIR/study.md (their paths appended to result.files).
+void write_study_files(StudyResult& result, const std::filesystem::path& out_dir);
 
 // Errors and the front for already measured runs (run_study calls it; exposed for tests): with
 // reference "finest", takes the references from the run of most tet-steps.
