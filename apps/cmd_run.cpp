@@ -96,7 +96,7 @@ std::string progress_text(const RunProgress& p) {
 
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
                 const std::string& precision, std::optional<double> duration, bool quiet, bool dry_run, bool repair,
-                double progress_every, const PictureOptions& pic, const std::string& schedule) {
+                double progress_every, const PictureOptions& pic, const std::string& schedule, bool realtime) {
   SceneDef scene = load_scene_file(scene_path);
   if (repair)
     for (BodyDef& b : scene.bodies) b.mesh.repair = true;
@@ -107,6 +107,8 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   else if (precision == "double") opt.precision = Precision::float64;
   else if (!precision.empty()) throw InputError(fmt::format("--precision must be float or double, got '{}'", precision));
   opt.duration = duration;
+  if (realtime) opt.realtime = true;
+  const bool paced = realtime || scene.realtime;
   if (schedule == "staggered") opt.schedule = Schedule::staggered;
   else if (schedule == "naive") opt.schedule = Schedule::naive;
   else if (!schedule.empty()) throw InputError(fmt::format("--schedule must be staggered or naive, got '{}'", schedule));
@@ -183,6 +185,15 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     opt.on_progress = [&](const RunProgress& p) {
       if (p.estimate) {  // the plan's last line; not worth a line when the run is about to end
         if (p.eta_s >= 1) fmt::print("  {}\n", estimate_line(p.eta_s + p.wall_s, p.step, p.seconds_per_substep));
+        // A real-time run that cannot keep up says so at once, with the numbers.
+        const double wall_per_second = p.seconds_per_substep * world.substeps() / world.dt();
+        if (paced && wall_per_second > 1)
+          fmt::print(stderr,
+                     "pliant: warning: this scene cannot run in real time on {} thread(s): a simulated second costs {:.3g} s "
+                     "of wall time ({:.0f} sub-steps of {:.3g} us); simulated time will fall behind the clock by about {:.3g} s "
+                     "by the end (coarser meshes, fewer tets stepped or more cores would help)\n",
+                     world.threads(), wall_per_second, world.substeps() / world.dt(), 1e6 * p.seconds_per_substep,
+                     (wall_per_second - 1) * p.duration);
         std::fflush(stdout);
         return;
       }
@@ -226,6 +237,10 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     }
     fmt::print("max displacement {:.4g} m, kinetic {:.4g} J, elastic {:.4g} J, state hash {}\n", s.max_displacement,
                s.kinetic_energy, s.elastic_energy, s.state_hash);
+    if (s.realtime)
+      fmt::print("real time: {:.3g} simulated s per wall s; {} of {} steps ended after their wall-clock time; lag mean "
+                 "{:.3g} s, max {:.3g} s\n",
+                 s.realtime_factor, s.deadline_misses, s.steps, s.lag_mean_s, s.lag_max_s);
     for (const auto& t : s.tools)
       fmt::print("tool '{}': largest force {:.4g} N, in contact {} of {} steps, deepest penetration {:.3g} m\n", t.name,
                  t.max_force, t.contact_steps, s.steps, t.max_penetration);
@@ -251,7 +266,7 @@ Command add_run_command(CLI::App& app) {
     std::string scene, out = "out", precision, schedule;
     std::optional<int> threads;
     std::optional<double> duration;
-    bool quiet = false, dry_run = false, repair = false;
+    bool quiet = false, dry_run = false, repair = false, realtime = false;
     double progress_every = 5;  // s between progress lines when stderr is not a terminal (a log, a CI job)
     PictureOptions pic;
   };
@@ -265,6 +280,9 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--schedule", o->schedule,
                   "How multiresolution levels share the ticks: staggered (coarse work in slices, every tick costs "
                   "about the same; the default) or naive (every coarse level on the same tick)");
+  run->add_flag("--realtime", o->realtime,
+                "Simulated time follows the wall clock: steps wait for their time, and the report says how many ended late "
+                "and how far simulated time lagged (also \"realtime\": true in the scene)");
   run->add_flag("--quiet,-q", o->quiet, "No plan, no progress and no report (warnings and errors still print)");
   run->add_option("--progress-every", o->progress_every,
                   "Seconds between progress lines on stderr when it is not a terminal (on a terminal, one line is rewritten)")
@@ -285,7 +303,7 @@ Command add_run_command(CLI::App& app) {
   add_view_options(run, o->pic.up, o->pic.azimuth, o->pic.elevation);
   return {run, [o] {
             return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->dry_run, o->repair,
-                               o->progress_every, o->pic, o->schedule);
+                               o->progress_every, o->pic, o->schedule, o->realtime);
           }};
 }
 

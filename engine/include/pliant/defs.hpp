@@ -218,6 +218,7 @@ struct SceneDef {
   std::vector<ToolDef> tools;
   OutputDef output;
   std::optional<CameraDef> camera;  // none: pictures frame the bodies automatically
+  bool realtime = false;  // `pliant run` paces the steps so that simulated time follows the wall clock (RunOptions::realtime)
   std::filesystem::path source;  // the scene file, for messages ("" when built in code)
 };
 

@@ -40,6 +40,16 @@ struct RunOptions {
   double estimate_after = 0.3;             // s of wall time of stepping before the estimate (kEstimateAfter)
   std::function<void(const RunProgress&)> on_progress;
   bool write_files = true;                 // false: compute only (tests, studies)
+  // Real time (SceneDef::realtime, `pliant run --realtime`): simulated time follows the wall clock.
+  // A step starts when the wall clock (since the run began) reaches the simulated time of its
+  // start (the runner sleeps until then); a step that ends after the wall-clock time of its end
+  // is a deadline miss, and simulated time then lags the clock (RunSummary reports both). The
+  // physics of a step never changes: only when it runs.
+  std::optional<bool> realtime;            // override the scene's
+  // The wall clock (s, any origin) and how to wait for it, for real-time runs; empty: the steady
+  // clock and std::this_thread::sleep_until. Tests give a simulated clock.
+  std::function<double()> wall_clock;
+  std::function<void(double)> sleep_until;
   // Called on the initial state and then every `frame_every` simulated seconds (0: never), for
   // pictures or custom records. It reads the world and must not change it.
   double frame_every = 0;                  // s
@@ -80,6 +90,13 @@ struct RunSummary {
   double tick_tet_updates_mean = 0;
   std::size_t tick_tet_updates_max = 0;
   double tick_mean_us = 0, tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0;
+  // Time: the run's simulated seconds per wall second of stepping (above 1: faster than real time).
+  // Real-time runs (RunOptions::realtime) also count the steps that ended after the wall-clock time
+  // of their end, and how far simulated time lagged the clock at the end of each step.
+  double realtime_factor = 0;
+  bool realtime = false;
+  std::int64_t deadline_misses = 0;
+  double lag_mean_s = 0, lag_max_s = 0;
   // Tools (docs/tool.md), over the run's steps.
   struct Tool {
     std::string name;

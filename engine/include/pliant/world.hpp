@@ -84,6 +84,12 @@ class World {
   // Throws DivergenceError naming body, level, step and node if the state stops being finite.
   void step();
 
+  // Steps until the simulated time reaches t (s) to within half a step, and returns the steps
+  // taken (0 if it is there already): a host keeps simulated time on its own clock by calling it
+  // each frame with the clock's time since the world started (real time; RunOptions::realtime
+  // does the same for `pliant run`). The steps are the same as step()'s.
+  std::int64_t advance_to(double t);
+
   double time() const;             // s
   std::int64_t steps() const;      // calls of step() so far
   double dt() const;               // s, the step of step()

@@ -2,7 +2,9 @@
 // VTU frames at their own rates, prints a progress line, writes summary.json.
 #include "pliant/run.hpp"
 
+#include <chrono>
 #include <cmath>
+#include <thread>
 #include <cstdio>
 #include <fmt/format.h>
 #include <fstream>
@@ -179,6 +181,13 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   j["tick_p50_us"] = s.tick_p50_us;
   j["tick_p99_us"] = s.tick_p99_us;
   j["tick_max_us"] = s.tick_max_us;
+  j["realtime"] = s.realtime;
+  j["realtime_factor"] = s.realtime_factor;
+  if (s.realtime) {
+    j["deadline_misses"] = s.deadline_misses;
+    j["lag_mean_s"] = s.lag_mean_s;
+    j["lag_max_s"] = s.lag_max_s;
+  }
   if (!s.tools.empty()) {
     nlohmann::ordered_json tools = nlohmann::ordered_json::array();
     for (const auto& t : s.tools)
@@ -274,11 +283,44 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
 
   detail::StepClock clock;
   clock.start();
+  // Real time: the wall clock since stepping began, and the pacing of the steps on it.
+  const bool realtime = options.realtime.value_or(scene.realtime);
+  s.realtime = realtime;
+  const auto steady_start = std::chrono::steady_clock::now();
+  auto wall_now = [&]() -> double {
+    if (options.wall_clock) return options.wall_clock();
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - steady_start).count();
+  };
+  auto wait_until = [&](double t) {
+    if (options.sleep_until) return options.sleep_until(t);
+    std::this_thread::sleep_until(steady_start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                     std::chrono::duration<double>(t)));
+  };
+  const double wall0 = realtime ? wall_now() : 0.0, sim0 = world.time();
+  double lag_sum = 0;
+  std::int64_t steps_run = 0;
   bool estimated = false;
   double next_progress = options.progress_every;
   try {
     for (std::int64_t i = 0; i < total_steps; ++i) {
+      if (realtime) {
+        const double due = wall0 + (world.time() - sim0);  // the wall-clock time of this step's start
+        const double before = wall_now();
+        if (before < due) {
+          wait_until(due);
+          clock.idle(wall_now() - before);
+        }
+      }
       world.step();
+      ++steps_run;
+      if (realtime) {
+        const double lag = (wall_now() - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
+        if (lag > 0) {
+          ++s.deadline_misses;
+          lag_sum += lag;
+          s.lag_max_s = std::max(s.lag_max_s, lag);
+        }
+      }
       clock.stepped(world.substeps());
       for (std::size_t t = 0; t < s.tools.size(); ++t) {
         const ToolReading r = world.tool_reading(ToolId(t));
@@ -318,7 +360,9 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     s.status = "diverged";
     s.message = e.what();
   }
-  s.wall_time_s = clock.wall();
+  s.wall_time_s = realtime && options.wall_clock ? wall_now() - wall0 : clock.wall();
+  s.realtime_factor = s.wall_time_s > 0 ? (world.time() - sim0) / s.wall_time_s : 0;
+  if (realtime && steps_run > 0) s.lag_mean_s = lag_sum / double(steps_run);  // over every step (0 for steps on time)
   s.steps = world.steps();
   s.max_substeps = world.max_substeps();
   s.adapted_steps = world.adapted_steps();

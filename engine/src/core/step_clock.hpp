@@ -21,15 +21,19 @@ class StepClock {
     if (steps_ == 1) {
       after_first_ = Clock::now();
       first_substeps_ = substeps;
+      idle_at_first_ = idle_;
     }
   }
+  // Wall time spent waiting rather than stepping (a real-time run's pacing): left out of the cost
+  // per sub-step, so that the estimate says what stepping costs.
+  void idle(double seconds) { idle_ += seconds; }
   double wall() const { return std::chrono::duration<double>(Clock::now() - start_).count(); }
   std::int64_t steps() const { return steps_; }
   // s of wall time per sub-step so far (0 before the first step).
   double seconds_per_substep() const {
     if (steps_ == 0) return 0;
-    if (steps_ == 1) return wall() / double(substeps_);
-    const double t = std::chrono::duration<double>(Clock::now() - after_first_).count();
+    if (steps_ == 1) return (wall() - idle_) / double(substeps_);
+    const double t = std::chrono::duration<double>(Clock::now() - after_first_).count() - (idle_ - idle_at_first_);
     return t / double(substeps_ - first_substeps_);
   }
   RunProgress progress(std::int64_t total_steps, int last_substeps, double time, double duration) const {
@@ -50,6 +54,7 @@ class StepClock {
   Clock::time_point start_, after_first_;
   std::int64_t steps_ = 0, substeps_ = 0;
   int first_substeps_ = 0;
+  double idle_ = 0, idle_at_first_ = 0;  // s
 };
 
 }  // namespace pliant::detail

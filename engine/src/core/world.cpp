@@ -673,6 +673,16 @@ void World::step() {
     });
 }
 
+std::int64_t World::advance_to(double t) {
+  if (!std::isfinite(t)) throw InputError(fmt::format("advance_to: the time must be finite, got {}", t));
+  std::int64_t n = 0;
+  while (impl_->time + 0.5 * impl_->dt <= t) {
+    step();
+    ++n;
+  }
+  return n;
+}
+
 double World::time() const { return impl_->time; }
 std::int64_t World::steps() const { return impl_->steps; }
 double World::dt() const { return impl_->dt; }

@@ -299,6 +299,7 @@ SceneDef Reader::scene(const Json& doc) const {
     optional(v, p, "sheet", [&](const auto& x, const auto& q) { s.output.sheet = boolean(x, q); });
   });
   optional(doc, "", "camera", [&](const auto& v, const auto& p) { s.camera = camera(v, p); });
+  optional(doc, "", "realtime", [&](const auto& v, const auto& p) { s.realtime = boolean(v, p); });
   optional(doc, "", "obstacles", [&](const auto& v, const auto& path) {
     for (std::size_t i = 0; i < array(v, path).size(); ++i) s.world.obstacles.push_back(obstacle(v[i], element(path, i)));
   });

@@ -1,0 +1,102 @@
+// Real time (RunOptions::realtime, scene "realtime", World::advance_to): steps wait for the wall
+// clock, late steps are counted and the lag measured, and the physics is untouched. The runs use
+// a simulated wall clock (each step "costs" a chosen wall time), so that the figures are exact
+// and no test depends on how busy the machine is.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pliant/run.hpp"
+#include "pliant/scene.hpp"
+#include "pliant/world.hpp"
+
+namespace pliant {
+namespace {
+
+SceneDef beam() {
+  return parse_scene(R"({"duration": 0.05, "bodies": [{"name": "beam", "mesh": {"box": {"min": [0,0,0], "max": [0.2,0.02,0.02],
+      "cells": [10,1,1]}}, "material": {"young": 1e6}, "fixed": [{"box": {"min": [-1,-1,-1], "max": [1e-9,1,1]}}]}]})",
+                     "beam.json", ".");
+}
+
+struct FakeClock {
+  const World* world = nullptr;
+  double step_cost = 0;  // s of wall time each step takes
+  double slept = 0;      // s spent waiting
+  std::int64_t first_step = 0;
+  double now() const { return double(world->steps() - first_step) * step_cost + slept; }
+};
+
+RunSummary paced_run(double cost_in_steps, std::uint64_t* hash = nullptr) {
+  const SceneDef scene = beam();
+  RunOptions o;
+  o.write_files = false;
+  o.realtime = true;
+  World w = make_world(scene, o);
+  FakeClock clock{&w, cost_in_steps * w.dt(), 0, w.steps()};
+  o.wall_clock = [&] { return clock.now(); };
+  o.sleep_until = [&](double t) { clock.slept += std::max(0.0, t - clock.now()); };
+  RunSummary s = run_world(scene, w, o);
+  if (hash) *hash = w.state_hash();
+  return s;
+}
+
+TEST(RealTime, StepsFasterThanTheClockWaitAndNeverMissTheirDeadline) {
+  std::uint64_t paced_hash = 0;
+  const RunSummary s = paced_run(0.4, &paced_hash);
+  EXPECT_TRUE(s.realtime);
+  EXPECT_EQ(s.deadline_misses, 0);
+  EXPECT_EQ(s.lag_max_s, 0.0);
+  EXPECT_EQ(s.lag_mean_s, 0.0);
+  // Simulated time followed the clock: the run took (steps - 1) waits of a step plus the last step's cost.
+  EXPECT_NEAR(s.realtime_factor, s.simulated_time / ((double(s.steps) - 1 + 0.4) * s.dt), 1e-12);
+  EXPECT_NEAR(s.realtime_factor, 1.0, 0.02);
+  // Pacing changes when steps run, never what they compute.
+  RunOptions o;
+  o.write_files = false;
+  const SceneDef scene = beam();
+  World free_run = make_world(scene, o);
+  run_world(scene, free_run, o);
+  EXPECT_EQ(free_run.state_hash(), paced_hash);
+}
+
+TEST(RealTime, StepsSlowerThanTheClockAreCountedAndTheLagMeasured) {
+  // Each step costs 2.5 steps of wall time: step k (1-based) ends at 2.5 k dt, due at k dt: lag 1.5 k dt.
+  const RunSummary s = paced_run(2.5);
+  const double n = double(s.steps), dt = s.dt;
+  EXPECT_EQ(s.deadline_misses, s.steps);
+  EXPECT_NEAR(s.lag_max_s, 1.5 * n * dt, 1e-12);
+  EXPECT_NEAR(s.lag_mean_s, 1.5 * dt * (n + 1) / 2, 1e-12);
+  EXPECT_NEAR(s.realtime_factor, 1 / 2.5, 1e-12);
+}
+
+TEST(RealTime, AFreeRunReportsItsFactorWithoutPacing) {
+  RunOptions o;
+  o.write_files = false;
+  const RunSummary s = run_scene(beam(), o);
+  EXPECT_FALSE(s.realtime);
+  EXPECT_EQ(s.deadline_misses, 0);
+  EXPECT_GT(s.realtime_factor, 0);
+  EXPECT_NEAR(s.realtime_factor, s.simulated_time / s.wall_time_s, 1e-12);
+}
+
+TEST(RealTime, SceneKeyAndOverride) {
+  EXPECT_TRUE(parse_scene(R"({"realtime": true, "bodies": [{"mesh": {"box": {}}}]})", "t.json", ".").realtime);
+  EXPECT_FALSE(parse_scene(R"({"bodies": [{"mesh": {"box": {}}}]})", "t.json", ".").realtime);
+  EXPECT_THROW(parse_scene(R"({"realtime": 1, "bodies": [{"mesh": {"box": {}}}]})", "t.json", "."), InputError);
+}
+
+TEST(RealTime, AdvanceToStepsUpToTheHostsClock) {
+  const SceneDef scene = beam();
+  World w = make_world(scene);
+  const double dt = w.dt();
+  EXPECT_EQ(w.advance_to(0.0), 0);
+  EXPECT_EQ(w.advance_to(10.4 * dt), 10);  // to within half a step
+  EXPECT_EQ(w.advance_to(10.6 * dt), 1);
+  EXPECT_EQ(w.advance_to(5 * dt), 0);      // never backwards
+  EXPECT_NEAR(w.time(), 11 * dt, 1e-15);
+  EXPECT_THROW(w.advance_to(std::nan("")), InputError);
+}
+
+}  // namespace
+}  // namespace pliant
