@@ -241,12 +241,16 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
       fmt::print("real time: {:.3g} simulated s per wall s; {} of {} steps ended after their wall-clock time; lag mean "
                  "{:.3g} s, max {:.3g} s\n",
                  s.realtime_factor, s.deadline_misses, s.steps, s.lag_mean_s, s.lag_max_s);
+    for (const auto& a : s.adapt)
+      fmt::print("adaptivity of body '{}': {} splits, {} merges in {} changes, {:.0f} us per change\n", a.body, a.splits,
+                 a.merges, a.changes, a.apply_us_per_change);
     for (const auto& t : s.tools)
       fmt::print("tool '{}': largest force {:.4g} N, in contact {} of {} steps, deepest penetration {:.3g} m\n", t.name,
                  t.max_force, t.contact_steps, s.steps, t.max_penetration);
     auto wrote = [&](const char* f) { return std::find(s.files.begin(), s.files.end(), f) != s.files.end(); };
-    fmt::print("results in {}/ (summary.json{}{}{})\n", fs::path(out).string(), wrote("probes.csv") ? ", probes.csv" : "",
-               wrote("tools.csv") ? ", tools.csv" : "", scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
+    fmt::print("results in {}/ (summary.json{}{}{}{})\n", fs::path(out).string(), wrote("probes.csv") ? ", probes.csv" : "",
+               wrote("tools.csv") ? ", tools.csv" : "", wrote("levels.csv") ? ", levels.csv" : "",
+               scene.output.vtu_every > 0 ? ", series.pvd + vtu/" : "");
   }
   if (std::find(s.files.begin(), s.files.end(), "tools.csv") != s.files.end() &&
       plot_tool_forces(fs::path(out) / "tools.csv", fs::path(out) / "tools.png") && !quiet)

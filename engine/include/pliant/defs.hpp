@@ -88,10 +88,26 @@ struct ActiveRegionDef {
   int level = 0;       // 0 = coarsest .. levels - 1 = finest
   RegionDef region;    // box, sphere or nodes (nodes: of the finest level's mesh)
 };
+// Adaptivity (ActiveDef::Kind::adaptive, docs/multiresolution.md "Adaptivity"): the body starts at
+// its coarsest level; at fixed points of the tick sequence (the ticks where every level's window
+// ends) a node of level l < finest whose stepped tets strain more than `refine_above` is split
+// (its children and their ring become active, initialised from the current field), and a split
+// node whose children all stay below `coarsen_below` for `min_dwell` seconds is merged back (it
+// takes their interpolated state). The measure is the Green-Lagrange strain's Frobenius norm
+// |E| = |(F^T F - I) / 2| of a tet (dimensionless, zero under any rigid motion), the largest over
+// the stepped tets around the node: a coarse level represents the body well where it barely
+// strains, and a large strain is where its locking and coarse sampling are wrong the most.
+struct AdaptDef {
+  double refine_above = 0.02;    // |E| above which a node splits (2% strain)
+  double coarsen_below = 0.005;  // |E| below which its children may merge back (< refine_above)
+  double min_dwell = 0.05;       // s a split node's children stay calm before merging
+  double check_every = 0;        // s between decisions (0: every aligned tick)
+};
 struct ActiveDef {
-  enum class Kind { finest, coarsest, level, regions } kind = Kind::finest;
+  enum class Kind { finest, coarsest, level, regions, adaptive } kind = Kind::finest;
   int level = 0;                         // Kind::level
   std::vector<ActiveRegionDef> regions;  // Kind::regions
+  AdaptDef adapt;                        // Kind::adaptive
 };
 
 // Several resolutions of one body simulated at once (thesis ch. 5; docs/multiresolution.md).

@@ -97,6 +97,14 @@ struct RunSummary {
   bool realtime = false;
   std::int64_t deadline_misses = 0;
   double lag_mean_s = 0, lag_max_s = 0;
+  // Adaptive bodies (multiresolution.active = adaptive): their decisions over the run. Their
+  // stepped tets per level over time are in levels.csv.
+  struct Adapt {
+    std::string body;
+    std::int64_t splits = 0, merges = 0, changes = 0;
+    double apply_us_per_change = 0;  // us of wall time to apply one change (re-activation + state transfer)
+  };
+  std::vector<Adapt> adapt;
   // Tools (docs/tool.md), over the run's steps.
   struct Tool {
     std::string name;

@@ -158,6 +158,18 @@ class World {
   // sit at rest position + offset (m), and their velocity is the offset's rate of change.
   void set_motion_offset(BodyId body, int motion, const Vec3d& offset);
 
+  // ---- adaptivity (multiresolution.active = adaptive; docs/multiresolution.md "Adaptivity") ----
+  struct AdaptStats {
+    std::int64_t splits = 0, merges = 0;  // node decisions so far
+    std::int64_t checks = 0;              // decision points so far (ticks where every level's window ended)
+    std::int64_t changes = 0;             // decisions that changed what is stepped
+    double apply_seconds = 0;             // s of wall time spent applying the changes
+  };
+  AdaptStats adapt_stats(BodyId body) const;  // zeros for a body that is not adaptive
+  // At its next decision, an adaptive body activates every node up to `level` (0: the coarsest
+  // everywhere), whatever the measure says; afterwards the measure decides again.
+  void force_level(BodyId body, int level);
+
   // ---- skins (pliant/skin.hpp, BodyDef::skin) ----
   bool has_skin(BodyId body) const;
   const std::vector<std::array<std::int32_t, 3>>& skin_triangles(BodyId body) const;  // empty without a skin

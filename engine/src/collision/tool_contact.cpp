@@ -114,9 +114,16 @@ bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeD
   lc.hits.clear();
   for (std::uint32_t t : lc.candidates) {
     const auto& tri = lc.triangles[t];
-    bool any_free = false;
-    for (std::int32_t i : tri) any_free |= L.state[std::size_t(lc.surface_nodes[std::size_t(i)])] == kNodeFree;
-    if (!any_free) continue;
+    // Only the simulated surface: a triangle with an inactive corner is not part of it (a
+    // multiresolution level where another level is active; its inactive corners sit where they
+    // last were), and one without a free corner cannot be moved.
+    bool any_free = false, any_inactive = false;
+    for (std::int32_t i : tri) {
+      const std::uint8_t s = L.state[std::size_t(lc.surface_nodes[std::size_t(i)])];
+      any_free |= s == kNodeFree;
+      any_inactive |= s == kNodeInactive;
+    }
+    if (!any_free || any_inactive) continue;
     const P3 p0 = vertex(L, lc.surface_nodes[std::size_t(tri[0])]), p1 = vertex(L, lc.surface_nodes[std::size_t(tri[1])]),
              p2 = vertex(L, lc.surface_nodes[std::size_t(tri[2])]);
     double d2;

@@ -83,6 +83,33 @@ class ToolWriter {
   std::FILE* file_ = nullptr;
 };
 
+// levels.csv: for runs with adaptive bodies, every level's stepped tets, active and ghost nodes
+// over time, at the probes' rate.
+class LevelWriter {
+ public:
+  LevelWriter(const fs::path& path, bool enabled) {
+    if (!enabled) return;
+    file_ = std::fopen(path.string().c_str(), "w");
+    if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
+    std::fputs("time,body,level,stepped_tets,active_nodes,ghost_nodes\n", file_);
+  }
+  ~LevelWriter() {
+    if (file_) std::fclose(file_);
+  }
+  void write(const World& w) {
+    if (!file_) return;
+    for (std::size_t b = 0; b < w.body_count(); ++b)
+      for (int l = 0; l < w.level_count(BodyId(b)) && w.level_count(BodyId(b)) > 1; ++l) {
+        const LevelInfo i = w.level_info(BodyId(b), l);
+        fmt::print(file_, "{:.9g},{},{},{},{},{}\n", w.time(), w.body_def(BodyId(b)).name, l, i.stepped_tets, i.active_nodes,
+                   i.ghost_nodes);
+      }
+  }
+
+ private:
+  std::FILE* file_ = nullptr;
+};
+
 class VtuSeries {
  public:
   VtuSeries(const fs::path& dir, bool enabled) : dir_(dir), pvd_(dir / "series.pvd"), enabled_(enabled) {
@@ -188,6 +215,20 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     j["lag_mean_s"] = s.lag_mean_s;
     j["lag_max_s"] = s.lag_max_s;
   }
+  if (!s.adapt.empty()) {
+    nlohmann::ordered_json a = nlohmann::ordered_json::array();
+    for (const auto& x : s.adapt)
+      a.push_back({{"body", x.body}, {"splits", x.splits}, {"merges", x.merges}, {"changes", x.changes},
+                   {"apply_us_per_change", x.apply_us_per_change}});
+    j["adaptivity"] = a;
+    std::int64_t splits = 0, merges = 0;
+    for (const auto& x : s.adapt) {
+      splits += x.splits;
+      merges += x.merges;
+    }
+    j["splits"] = splits;
+    j["merges"] = merges;
+  }
   if (!s.tools.empty()) {
     nlohmann::ordered_json tools = nlohmann::ordered_json::array();
     for (const auto& t : s.tools)
@@ -268,6 +309,13 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
 
   ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
+  bool adaptive = false;
+  for (std::size_t b = 0; b < world.body_count(); ++b)
+    adaptive |= world.body_def(BodyId(b)).multiresolution.levels > 1 &&
+                world.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive;
+  LevelWriter level_rows(options.out_dir / "levels.csv", options.write_files && adaptive);
+  if (options.write_files && adaptive) s.files.push_back("levels.csv");
+  level_rows.write(world);
   const bool tools_csv = options.write_files && world.tool_count() > 0;
   ToolWriter tools(options.out_dir / "tools.csv", tools_csv);
   if (tools_csv) s.files.push_back("tools.csv");
@@ -332,6 +380,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
       if (world.time() + eps >= next_probe) {  // probe_every = 0: every step
         probes.write(world);
         tools.write(world);
+        level_rows.write(world);
         if (scene.output.probe_every > 0) next_probe = next_due(scene.output.probe_every, world.time(), eps);
       }
       if (vtu.enabled() && world.time() + eps >= next_vtu) {
@@ -377,6 +426,12 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
       s.levels.push_back({world.body_def(BodyId(b)).name, l, i.period, i.nodes, i.tets, double(i.stepped_tets),
                           double(i.ghost_nodes), i.dt});
     }
+  for (std::size_t b = 0; b < world.body_count(); ++b) {
+    const World::AdaptStats a = world.adapt_stats(BodyId(b));
+    if (a.checks == 0) continue;
+    s.adapt.push_back({world.body_def(BodyId(b)).name, a.splits, a.merges, a.changes,
+                       a.changes > 0 ? 1e6 * a.apply_seconds / double(a.changes) : 0.0});
+  }
   const TickStats& ts = world.tick_stats();
   s.tet_updates = ts.tet_updates();
   s.tick_tet_updates_mean = ts.tets_mean();

@@ -17,6 +17,7 @@
 #include "pliant/scheduler/level_schedule.hpp"
 #include "pliant/tool.hpp"
 #include "../collision/skin_binding.hpp"
+#include "../multires/adaptivity.hpp"
 #include "../collision/tool_contact.hpp"
 
 namespace pliant::detail {
@@ -43,6 +44,7 @@ struct SimBody {
   // Per level: the factor its elastic moduli were scaled by (multiresolution calibration; 1 = none).
   std::vector<double> stiffness_factors;
   std::shared_ptr<const SkinState> skin;  // BodyDef::skin bound to every level; null without one
+  std::shared_ptr<AdaptiveState> adapt;   // ActiveDef::Kind::adaptive; null otherwise
 };
 
 // A tool as the step sees it: its pose source and its contact with every level of every body it
@@ -208,6 +210,8 @@ class Simulation {
   // True if some level's model can stiffen beyond its rest state (stvk, corotational).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
+
+  void relocate_probes(int body);
 
  private:
   std::int64_t tick_ = 0;

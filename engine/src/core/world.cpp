@@ -360,8 +360,34 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
     if (def.multiresolution.levels > 1) {
-      const Hierarchy h = link_levels(build_level_meshes(def, std::move(mesh)));
-      b = detail::build_multilevel_body<T>(h, def, impl_->def.time_step.courant, impl_->exec);
+      auto h = std::make_shared<const Hierarchy>(link_levels(build_level_meshes(def, std::move(mesh))));
+      b = detail::build_multilevel_body<T>(*h, def, impl_->def.time_step.courant, impl_->exec);
+      if (def.multiresolution.active.kind == ActiveDef::Kind::adaptive) {
+        const AdaptDef& ad = def.multiresolution.active.adapt;
+        if (!(std::isfinite(ad.refine_above) && ad.refine_above > 0))
+          throw InputError(fmt::format("body '{}': multiresolution.adapt.refine_above must be a positive strain, got {}", def.name, ad.refine_above));
+        if (!(std::isfinite(ad.coarsen_below) && ad.coarsen_below >= 0 && ad.coarsen_below < ad.refine_above))
+          throw InputError(fmt::format("body '{}': multiresolution.adapt.coarsen_below must be in [0, refine_above = {}), got {}",
+                                       def.name, ad.refine_above, ad.coarsen_below));
+        if (!(std::isfinite(ad.min_dwell) && ad.min_dwell >= 0) || !(std::isfinite(ad.check_every) && ad.check_every >= 0))
+          throw InputError(fmt::format("body '{}': multiresolution.adapt.min_dwell and check_every must be finite and >= 0 (s)", def.name));
+        auto a = std::make_shared<detail::AdaptiveState>();
+        a->hierarchy = h;
+        a->activation = std::make_unique<detail::ActivationState>(*h, detail::node_targets(*h, def.multiresolution.active));
+        a->def = def.multiresolution.active.adapt;
+        for (const TetMesh& m : h->meshes) {
+          a->calm_since.emplace_back(m.node_count(), -1.0);
+          a->neighbours.push_back(detail::face_neighbours(m));
+          double sum = 0;
+          for (const Tet& t : m.tets)
+            for (int e = 0; e < 3; ++e) {
+              const Vec3d p = m.point(std::size_t(t[std::size_t(e)])), q = m.point(std::size_t(t[std::size_t(e) + 1]));
+              sum += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+            }
+          a->edge.push_back(sum / (3.0 * double(m.tet_count())));
+        }
+        b.adapt = std::move(a);
+      }
     } else {
       b.def = def;
       b.origin = detail::body_frame_origin(mesh);
@@ -482,6 +508,25 @@ ToolId World::add_tool(const ToolDef& in) {
     s.tools.push_back(std::move(tool));
     w.haptic.push_back(std::make_unique<HapticLink>());
     return ToolId(s.tools.size() - 1);
+  });
+}
+
+World::AdaptStats World::adapt_stats(BodyId b) const {
+  return impl_->visit([&](auto& s) {
+    AdaptStats a;
+    const auto& body = impl_->body(s, b);
+    if (body.adapt) a = {body.adapt->splits, body.adapt->merges, body.adapt->checks, body.adapt->changes, body.adapt->apply_seconds};
+    return a;
+  });
+}
+void World::force_level(BodyId b, int level) {
+  impl_->visit([&](auto& s) {
+    auto& body = impl_->body(s, b);
+    if (!body.adapt) throw InputError(fmt::format("force_level: body '{}' is not adaptive (multiresolution.active)", body.def.name));
+    if (level < 0 || level >= int(body.levels.size()))
+      throw InputError(fmt::format("force_level: level {} does not exist (0 .. {})", level, body.levels.size() - 1));
+    body.adapt->forced_target = level;
+    body.adapt->next_check = 0;
   });
 }
 

@@ -93,7 +93,8 @@ std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& 
     auto& t = target[std::size_t(l)];
     switch (active.kind) {
       case ActiveDef::Kind::finest: t.assign(m.node_count(), n - 1); break;
-      case ActiveDef::Kind::coarsest: t.assign(m.node_count(), 0); break;
+      case ActiveDef::Kind::coarsest:
+      case ActiveDef::Kind::adaptive: t.assign(m.node_count(), 0); break;  // adaptive: starts coarsest
       case ActiveDef::Kind::level: t.assign(m.node_count(), active.level); break;
       case ActiveDef::Kind::regions: {
         t.assign(m.node_count(), 0);

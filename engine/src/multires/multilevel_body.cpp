@@ -4,6 +4,7 @@
 
 #include "../core/simulation.hpp"
 #include "activation.hpp"
+#include "adaptivity.hpp"
 #include "calibration.hpp"
 #include "pliant/error.hpp"
 #include "pliant/kernels/element_forces.hpp"
@@ -47,9 +48,15 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
   // of a few tets leave the vector lanes of the kernels idle (the organ's split took as long as its
   // whole fine level). Nodes keep their numbers, so ghosts and their sources are unchanged.
   std::vector<TetMesh> meshes(n);
+  // An adaptive body keeps the hierarchy's tet order: what it steps changes as it runs.
+  const bool adaptive = def.multiresolution.active.kind == ActiveDef::Kind::adaptive;
   for (std::size_t l = 0; l < n; ++l) {
     const TetMesh& src = h.meshes[l];
     auto& stepped = act.levels[l].stepped;
+    if (adaptive) {
+      meshes[l] = src;
+      continue;
+    }
     meshes[l].points = src.points;
     meshes[l].tets.reserve(src.tet_count());
     for (int pass = 0; pass < 2; ++pass)
@@ -80,12 +87,23 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
     }
   }
 
+  std::vector<const TetMesh*> order(n);
+  for (std::size_t l = 0; l < n; ++l) order[l] = &meshes[l];
+  apply_activation(body, act, h, order, 0.0);
+  return body;
+}
+
+template <class T>
+void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& h, const std::vector<const TetMesh*>& meshes,
+                      double time) {
+  const std::size_t n = h.levels();
+  const BodyDef& def = body.def;
   // Roles, stepped tets, masses from the stepped tets.
   std::vector<std::vector<double>> mass(n);
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
     const LevelActivation& la = act.levels[l];
-    const TetMesh& m = meshes[l];
+    const TetMesh& m = *meshes[l];
     L.stepped_runs = runs_of(la.stepped);
     L.stepped_count = std::size_t(std::count(la.stepped.begin(), la.stepped.end(), std::uint8_t(1)));
     for (std::size_t i = 0; i < L.node_count; ++i)
@@ -136,6 +154,9 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
     });
     L.receivers.clear();
     L.receive_offsets.assign(1, 0);
+    L.receive_ghost_level.clear();  // applied again when an adaptive body changes
+    L.receive_ghost_node.clear();
+    L.receive_weight.clear();
     for (const Entry& e : r) {
       if (L.receivers.empty() || L.receivers.back() != e.node) {
         if (!L.receivers.empty()) L.receive_offsets.push_back(std::int32_t(L.receive_ghost_level.size()));
@@ -150,6 +171,7 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
       for (auto& j : L.impulse) j.assign(L.node_count, T(0));
     } else {
       L.receive_offsets.clear();
+      for (auto& j : L.impulse) j.clear();
     }
   }
 
@@ -174,13 +196,17 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
       }
     if (count == 0) none(fmt::format("fixed[{}]", i));
   }
-  body.motions.clear();
+  // Motions keep their state (keyframes, a host's offsets); only their nodes are chosen again.
+  body.motions.resize(def.prescribed.size());
   for (std::size_t i = 0; i < def.prescribed.size(); ++i) {
-    MotionState ms;
-    ms.keyframes = def.prescribed[i].keyframes;
-    ms.host_from.assign(n, Vec3d{0, 0, 0});
+    MotionState& ms = body.motions[i];
+    if (ms.host_from.empty()) {
+      ms.keyframes = def.prescribed[i].keyframes;
+      ms.host_from.assign(n, Vec3d{0, 0, 0});
+    }
+    ms.nodes.clear();
     std::size_t count = 0;
-    const Vec3d o = ms.offset_at(0.0);
+    const Vec3d o = ms.host_driven ? ms.host_offset : ms.offset_at(time);
     for (std::size_t l = 0; l < n; ++l) {
       ms.nodes.push_back(active_in(l, def.prescribed[i].region, fmt::format("prescribed[{}]", i)));
       Level<T>& L = body.levels[l];
@@ -191,7 +217,6 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
       count += ms.nodes.back().size();
     }
     if (count == 0) none(fmt::format("prescribed[{}]", i));
-    body.motions.push_back(std::move(ms));
   }
   for (auto& L : body.levels)
     for (auto& e : L.external) e.clear();
@@ -227,8 +252,10 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
       L.inv_mass[i] = L.state[i] == kNodeFree ? T(1.0 / mass[l][i]) : T(0);
     }
   }
-  return body;
 }
+
+template void apply_activation<float>(SimBody<float>&, const Activation&, const Hierarchy&, const std::vector<const TetMesh*>&, double);
+template void apply_activation<double>(SimBody<double>&, const Activation&, const Hierarchy&, const std::vector<const TetMesh*>&, double);
 
 template SimBody<float> build_multilevel_body<float>(const Hierarchy&, const BodyDef&, double, Executor&);
 template SimBody<double> build_multilevel_body<double>(const Hierarchy&, const BodyDef&, double, Executor&);

@@ -40,6 +40,7 @@ KeyList object_keys_at(std::string_view pattern) {
       {"bodies[].loads[]", kLoadKeys},
       {"bodies[].loads[].region", kRegionKeys},
       {"bodies[].multiresolution", kMultiresKeys},
+      {"bodies[].multiresolution.adapt", kAdaptKeys},
       {"bodies[].multiresolution.levels[]", kMeshKeys},
       {"bodies[].multiresolution.levels[].box", kMeshBoxKeys},
       {"bodies[].multiresolution.active[]", kActiveRegionKeys},

@@ -20,7 +20,8 @@ inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "preci
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution", "skin"};
-inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active"};
+inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active", "adapt"};
+inline constexpr std::string_view kAdaptKeys[] = {"refine_above", "coarsen_below", "min_dwell", "check_every"};
 inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
                                                  "cell_size", "scale", "translate", "repair"};

@@ -426,8 +426,9 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
   optional(j, path, "active", [&](const auto& v, const auto& p) {
     const std::string levels = fmt::format("0 (coarsest) .. {} (finest)", m.levels - 1);
     if (v.is_string()) {
-      m.active.kind = choice(v, p, "active level", {"finest", "coarsest"}) == 0 ? ActiveDef::Kind::finest
-                                                                                 : ActiveDef::Kind::coarsest;
+      const std::size_t c = choice(v, p, "active level", {"finest", "coarsest", "adaptive"});
+      m.active.kind = c == 0 ? ActiveDef::Kind::finest : c == 1 ? ActiveDef::Kind::coarsest : ActiveDef::Kind::adaptive;
+      if (c == 2 && m.levels < 2) fail(p, "\"adaptive\" needs at least 2 levels");
     } else if (v.is_number()) {
       m.active.kind = ActiveDef::Kind::level;
       m.active.level = static_cast<int>(integer(v, p, 0, m.levels - 1));
@@ -446,6 +447,18 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
       fail(p, "expected \"finest\", \"coarsest\", a level number in " + levels +
                   " or a list of {\"level\", \"region\"}, got " + describe(v));
     }
+  });
+  optional(j, path, "adapt", [&](const auto& v, const auto& p) {
+    if (m.active.kind != ActiveDef::Kind::adaptive) fail(p, "only with \"active\": \"adaptive\"");
+    object(v, p, kAdaptKeys);
+    AdaptDef& a = m.active.adapt;
+    optional(v, p, "refine_above", [&](const auto& x, const auto& q) { a.refine_above = positive(x, q); });
+    optional(v, p, "coarsen_below", [&](const auto& x, const auto& q) { a.coarsen_below = non_negative(x, q); });
+    optional(v, p, "min_dwell", [&](const auto& x, const auto& q) { a.min_dwell = non_negative(x, q); });
+    optional(v, p, "check_every", [&](const auto& x, const auto& q) { a.check_every = non_negative(x, q); });
+    if (!(a.coarsen_below < a.refine_above))
+      fail(field(p, "coarsen_below"),
+           fmt::format("must be below refine_above ({} >= {}): a node would split and merge at once", a.coarsen_below, a.refine_above));
   });
   return m;
 }

@@ -1,0 +1,359 @@
+// adapt_body (adaptivity.hpp): measure, decide, re-activate, carry the state over.
+#include "adaptivity.hpp"
+
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+
+#include "../core/simulation.hpp"
+
+namespace pliant::detail {
+namespace {
+
+// The deformation gradient F of tet t of level L at its current corner positions `x` (x, y, z arrays).
+template <class T>
+std::array<double, 9> deformation_gradient(const Level<T>& L, std::size_t t, const std::vector<double>* x) {
+  double d[3][3], g[3][3];
+  const auto n0 = std::size_t(L.tet[0][t]);
+  for (int c = 0; c < 3; ++c) {
+    const auto n = std::size_t(L.tet[c + 1][t]);
+    for (int i = 0; i < 3; ++i) {
+      d[c][i] = x[i][n] - x[i][n0];
+      g[c][i] = double(L.grad[3 * c + i][t]);
+    }
+  }
+  std::array<double, 9> F;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) F[std::size_t(3 * i + j)] = d[0][i] * g[0][j] + d[1][i] * g[1][j] + d[2][i] * g[2][j];
+  return F;
+}
+
+// Position and velocity of every node of every level now (ghosts where their sources are), in double.
+template <class T>
+void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std::vector<std::vector<double>>& v) {
+  const std::size_t n = body.levels.size();
+  x.assign(3 * n, {});
+  v.assign(3 * n, {});
+  for (std::size_t l = 0; l < n; ++l) {
+    CurrentState<T> cs;
+    current_state(body, body.levels[l], cs);
+    for (int k = 0; k < 3; ++k) {
+      x[3 * l + std::size_t(k)].assign(cs.x[k].begin(), cs.x[k].end());
+      v[3 * l + std::size_t(k)].assign(cs.v[k].begin(), cs.v[k].end());
+    }
+  }
+}
+
+// The finer level's free nodes restricted onto the nodes of level l: per node, the sums of
+// w m u (3), w m v (3) and w m over the finer free nodes whose coarse tet has it as a corner with
+// weight w (m: their mass, u: displacement).
+template <class T>
+std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const Hierarchy& h, int l,
+                                                  const std::vector<std::vector<double>>& x,
+                                                  const std::vector<std::vector<double>>& v) {
+  std::vector<std::array<double, 7>> acc(body.levels[std::size_t(l)].node_count, std::array<double, 7>{});
+  const Level<T>& F = body.levels[std::size_t(l) + 1];
+  const LevelLinks& fl = h.links[std::size_t(l) + 1];
+  for (std::size_t f = 0; f < F.node_count; ++f) {
+    if (F.state[f] != kNodeFree || fl.to_coarser[f].tet < 0) continue;
+    const double m = double(F.mass[f]);
+    const auto& tet = h.meshes[std::size_t(l)].tets[std::size_t(fl.to_coarser[f].tet)];
+    for (int a = 0; a < 4; ++a) {
+      const double wm = fl.to_coarser[f].weights[std::size_t(a)] * m;
+      if (wm == 0) continue;
+      auto& q = acc[std::size_t(tet[std::size_t(a)])];
+      for (int k = 0; k < 3; ++k) {
+        q[std::size_t(k)] += wm * (x[3 * (std::size_t(l) + 1) + std::size_t(k)][f] - double(F.X[k][f]));
+        q[3 + std::size_t(k)] += wm * v[3 * (std::size_t(l) + 1) + std::size_t(k)][f];
+      }
+      q[6] += wm;
+    }
+  }
+  return acc;
+}
+
+}  // namespace
+
+template <class T>
+bool adapt_body(SimBody<T>& body, double t) {
+  AdaptiveState& st = *body.adapt;
+  if (t + 1e-12 < st.next_check) return false;
+  st.next_check = t + st.def.check_every;
+  ++st.checks;
+  const Hierarchy& h = *st.hierarchy;
+  ActivationState& as = *st.activation;
+  const int levels = int(h.levels());
+
+  // 1. The measure: per stepped tet, the largest jump |F_t - F_u| (Frobenius) of the deformation
+  // gradient to a stepped face neighbour of the same level; per node, the largest over the stepped
+  // tets around it. Piecewise-constant F jumps by about h |grad F| between tets: where it jumps,
+  // the level's tets are too coarse for how fast the deformation varies there. A rigid motion or a
+  // uniform strain gives no jump (F -> R F leaves |F_t - F_u| as it is).
+  std::vector<std::vector<double>> x, v;
+  field_now(body, x, v);
+  std::vector<std::vector<double>> measure(static_cast<std::size_t>(levels));
+  std::vector<std::array<double, 9>> F;
+  for (int l = 0; l < levels; ++l) {
+    const Level<T>& L = body.levels[std::size_t(l)];
+    auto& m = measure[std::size_t(l)];
+    m.assign(L.node_count, 0.0);
+    const std::vector<double>* xl = &x[3 * std::size_t(l)];  // x, y, z of level l
+    const std::vector<std::uint8_t>& on = as.stepped_mask(l);
+    F.assign(L.tet_count, {});
+    for (const Range& run : L.stepped_runs)
+      for (std::size_t e = run.begin; e < run.end; ++e) F[e] = deformation_gradient(L, e, xl);
+    const auto& nb = st.neighbours[std::size_t(l)];
+    for (const Range& run : L.stepped_runs)
+      for (std::size_t e = run.begin; e < run.end; ++e) {
+        double jump = 0;
+        for (std::int32_t u : nb[e]) {
+          if (u < 0 || !on[std::size_t(u)]) continue;
+          double d2 = 0;
+          for (int k = 0; k < 9; ++k) d2 += (F[e][std::size_t(k)] - F[std::size_t(u)][std::size_t(k)]) * (F[e][std::size_t(k)] - F[std::size_t(u)][std::size_t(k)]);
+          jump = std::max(jump, std::sqrt(d2));
+        }
+        for (int a = 0; a < 4; ++a) {
+          double& q = m[std::size_t(L.tet[a][e])];
+          q = std::max(q, jump);
+        }
+      }
+  }
+
+  // The merge measure: how far the finer field is from what the coarser level would give there.
+  // For a child c (a finer node in a split node's Voronoi zone), its displacement against the
+  // coarse field interpolated at its rest place (the coarse tet's corners: their own displacement
+  // when simulated, else the finer field restricted onto them), over the coarser level's mean edge:
+  // a strain-like number, small where the coarse level would represent the motion as well.
+  auto detail_of = [&](int l, std::int32_t i, const std::vector<std::array<double, 7>>& restricted) {
+    const LevelLinks& lk = h.links[std::size_t(l)];
+    const LevelLinks& fl = h.links[std::size_t(l) + 1];
+    const Level<T>& C = body.levels[std::size_t(l)];
+    const Level<T>& F = body.levels[std::size_t(l) + 1];
+    double worst = 0;
+    for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1]; ++c) {
+      const auto child = std::size_t(lk.children[std::size_t(c)]);
+      if (F.state[child] != kNodeFree || fl.to_coarser[child].tet < 0) continue;
+      const auto& tet = h.meshes[std::size_t(l)].tets[std::size_t(fl.to_coarser[child].tet)];
+      double pred[3] = {0, 0, 0};
+      for (int a = 0; a < 4; ++a) {
+        const auto j = std::size_t(tet[std::size_t(a)]);
+        const double w = fl.to_coarser[child].weights[std::size_t(a)];
+        for (int k = 0; k < 3; ++k) {
+          double u = x[3 * std::size_t(l) + std::size_t(k)][j] - double(C.X[k][j]);
+          if (C.state[j] == kNodeInactive) u = restricted[j][6] > 0 ? restricted[j][std::size_t(k)] / restricted[j][6] : 0.0;
+          pred[k] += w * u;
+        }
+      }
+      double d2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double d = x[3 * (std::size_t(l) + 1) + std::size_t(k)][child] - double(F.X[k][child]) - pred[k];
+        d2 += d * d;
+      }
+      worst = std::max(worst, std::sqrt(d2) / st.edge[std::size_t(l)]);
+    }
+    return worst;
+  };
+  std::vector<std::vector<std::array<double, 7>>> restricted_now(static_cast<std::size_t>(levels));
+  for (int l = 0; l + 1 < levels; ++l) restricted_now[std::size_t(l)] = restrict_field(body, h, l, x, v);
+
+  // 2. Decisions, coarse to fine, nodes in order (deterministic).
+  bool any = false;
+  for (int l = 0; l + 1 < levels; ++l) {
+    const Level<T>& L = body.levels[std::size_t(l)];
+    auto& calm = st.calm_since[std::size_t(l)];
+    for (std::int32_t i = 0; i < std::int32_t(L.node_count); ++i) {
+      const int target = as.target(l, i);
+      if (st.forced_target >= 0) {
+        const int want = std::min(st.forced_target, l + 1) > l ? l + 1 : l;
+        if (target != want) {
+          as.set_target(l, i, want);
+          (want > l ? st.splits : st.merges)++;
+          any = true;
+        }
+        continue;
+      }
+      if (target <= l) {  // not split (an adaptive body starts with every target at 0)
+        if (L.state[std::size_t(i)] == kNodeFree && measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above) {
+          as.set_target(l, i, l + 1);
+          calm[std::size_t(i)] = -1;
+          ++st.splits;
+          any = true;
+        }
+      } else if (target == l + 1) {
+        bool quiet = true;
+        const LevelLinks& lk = h.links[std::size_t(l)];
+        for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
+          quiet = as.target(l + 1, lk.children[std::size_t(c)]) <= l + 1;  // no child split further
+        quiet = quiet && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below;
+        if (!quiet) {
+          calm[std::size_t(i)] = -1;
+        } else if (calm[std::size_t(i)] < 0) {
+          calm[std::size_t(i)] = t;
+        }
+        if (quiet && t - calm[std::size_t(i)] >= st.def.min_dwell) {
+          as.set_target(l, i, l);
+          calm[std::size_t(i)] = -1;
+          ++st.merges;
+          any = true;
+        }
+      }
+    }
+  }
+  st.forced_target = -1;
+  if (!any) return false;
+
+  // 3. Re-activate and carry the state over.
+  const auto start = std::chrono::steady_clock::now();
+  const ActivationState::Changes ch = as.update();
+  bool changed = false;
+  for (int l = 0; l < levels; ++l)
+    changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
+  if (!changed) return false;
+  ++st.changes;
+  std::vector<std::vector<std::uint8_t>> old_state(static_cast<std::size_t>(levels));
+  std::vector<std::vector<double>> old_mass(static_cast<std::size_t>(levels));
+  double p_before[3] = {0, 0, 0};
+  for (int l = 0; l < levels; ++l) {
+    const Level<T>& L = body.levels[std::size_t(l)];
+    old_state[std::size_t(l)].assign(L.state.begin(), L.state.end());
+    old_mass[std::size_t(l)].assign(L.mass.begin(), L.mass.end());
+    for (std::size_t i = 0; i < L.node_count; ++i)
+      if (L.state[i] == kNodeFree)
+        for (int k = 0; k < 3; ++k) p_before[k] += double(L.mass[i]) * double(L.v[k][i]);
+  }
+  std::vector<const TetMesh*> meshes;
+  for (const TetMesh& m : h.meshes) meshes.push_back(&m);
+  apply_activation(body, as.snapshot(), h, meshes, t);
+  // A tet no longer stepped must not keep its last corner forces: the gather sums every tet
+  // around a node (the stepped ones are the only ones ever written).
+  for (int l = 0; l < levels; ++l) {
+    Level<T>& L = body.levels[std::size_t(l)];
+    const std::vector<std::uint8_t>& on = as.stepped_mask(l);
+    for (std::size_t e = 0; e < L.tet_count; ++e)
+      if (!on[e])
+        for (auto& c : L.corner_force) c[e] = T(0);
+  }
+
+  // Nodes that start being simulated take the field that was simulated there: from the finer
+  // level where it was active (a merge), else from the coarser one (a split).
+  auto from_link = [&](int l, const TetLink& link, std::size_t i) {
+    if (link.tet < 0) return false;
+    const TetMesh& m = h.meshes[std::size_t(l)];
+    const auto& tet = m.tets[std::size_t(link.tet)];
+    for (int a = 0; a < 4; ++a)
+      if (old_state[std::size_t(l)][std::size_t(tet[std::size_t(a)])] == kNodeInactive) return false;
+    (void)i;
+    return true;
+  };
+  // A merge restricts the finer field onto the coarse node: the average of the finer free nodes'
+  // displacements and velocities around it, weighted by their masses and their weights in the
+  // coarse tets (momentum-preserving, and never adding kinetic energy: sampling one finer node's
+  // velocity instead gave the coarse node, with its larger mass, whatever mode that node was in,
+  // and 100 forced cycles pumped a block's energy up 10^7-fold).
+  const auto& restricted = restricted_now;  // taken before the change, from the field as it was
+  for (int l = 0; l < levels; ++l) {
+    Level<T>& L = body.levels[std::size_t(l)];
+    const LevelLinks& lk = h.links[std::size_t(l)];
+    for (std::size_t i = 0; i < L.node_count; ++i) {
+      const std::uint8_t was = old_state[std::size_t(l)][i], now = L.state[i];
+      if (now == kNodeFixed && was != kNodeFixed) {
+        bool prescribed = false;
+        for (const MotionState& ms : body.motions)
+          prescribed |= std::binary_search(ms.nodes[std::size_t(l)].begin(), ms.nodes[std::size_t(l)].end(), std::int32_t(i));
+        if (!prescribed)
+          for (int k = 0; k < 3; ++k) {
+            L.x[k][i] = L.X[k][i];
+            L.v[k][i] = T(0);
+          }
+        continue;
+      }
+      if (now != kNodeFree || was == kNodeFree) continue;
+      if (was == kNodeGhost) {  // where its sources are now (its own entries lag by a window)
+        for (int k = 0; k < 3; ++k) {
+          L.x[k][i] = T(x[3 * std::size_t(l) + std::size_t(k)][i]);
+          L.v[k][i] = T(v[3 * std::size_t(l) + std::size_t(k)][i]);
+        }
+        continue;
+      }
+      if (l + 1 < levels && restricted[std::size_t(l)][i][6] > 0) {  // a merge
+        const auto& q = restricted[std::size_t(l)][i];
+        for (int k = 0; k < 3; ++k) {
+          L.x[k][i] = T(double(L.X[k][i]) + q[std::size_t(k)] / q[6]);
+          L.v[k][i] = T(q[3 + std::size_t(k)] / q[6]);
+        }
+        continue;
+      }
+      int src = -1;
+      const TetLink* link = nullptr;
+      if (l + 1 < levels && from_link(l + 1, lk.to_finer[i], i)) {
+        src = l + 1;
+        link = &lk.to_finer[i];
+      } else if (l > 0 && from_link(l - 1, lk.to_coarser[i], i)) {
+        src = l - 1;
+        link = &lk.to_coarser[i];
+      }
+      if (src < 0) continue;  // nothing simulated around it: it keeps its last state
+      const auto& tet = h.meshes[std::size_t(src)].tets[std::size_t(link->tet)];
+      for (int k = 0; k < 3; ++k) {
+        double xs = 0, vs = 0;
+        for (int a = 0; a < 4; ++a) {
+          const auto c = std::size_t(tet[std::size_t(a)]);
+          xs += link->weights[std::size_t(a)] * x[3 * std::size_t(src) + std::size_t(k)][c];
+          vs += link->weights[std::size_t(a)] * v[3 * std::size_t(src) + std::size_t(k)][c];
+        }
+        // Displacement, not position, is interpolated: a node off its source tet (outside the
+        // other mesh) keeps its own rest place plus the field's displacement there.
+        double xr = 0;
+        for (int a = 0; a < 4; ++a) xr += link->weights[std::size_t(a)] * double(body.levels[std::size_t(src)].X[k][std::size_t(tet[std::size_t(a)])]);
+        L.x[k][i] = T(double(L.X[k][i]) + (xs - xr));
+        L.v[k][i] = T(vs);
+      }
+    }
+  }
+  // Linear momentum kept: a uniform velocity change of the free nodes takes up what the new masses
+  // and the carried-over velocities changed.
+  double p_after[3] = {0, 0, 0}, m_free = 0;
+  for (auto& L : body.levels)
+    for (std::size_t i = 0; i < L.node_count; ++i)
+      if (L.state[i] == kNodeFree) {
+        m_free += double(L.mass[i]);
+        for (int k = 0; k < 3; ++k) p_after[k] += double(L.mass[i]) * double(L.v[k][i]);
+      }
+  if (m_free > 0)
+    for (auto& L : body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        if (L.state[i] == kNodeFree)
+          for (int k = 0; k < 3; ++k) L.v[k][i] = T(double(L.v[k][i]) + (p_before[k] - p_after[k]) / m_free);
+  st.apply_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return true;
+}
+
+std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
+  std::vector<std::array<std::int32_t, 4>> nb(mesh.tet_count(), {-1, -1, -1, -1});
+  // Faces keyed by their sorted corners; the face opposite corner a of tet t.
+  std::vector<std::pair<std::array<std::int32_t, 3>, std::int64_t>> faces;
+  faces.reserve(4 * mesh.tet_count());
+  for (std::size_t t = 0; t < mesh.tet_count(); ++t)
+    for (int a = 0; a < 4; ++a) {
+      std::array<std::int32_t, 3> f;
+      int k = 0;
+      for (int b = 0; b < 4; ++b)
+        if (b != a) f[std::size_t(k++)] = mesh.tets[t][std::size_t(b)];
+      std::sort(f.begin(), f.end());
+      faces.push_back({f, std::int64_t(4 * t + std::size_t(a))});
+    }
+  std::sort(faces.begin(), faces.end());
+  for (std::size_t i = 0; i + 1 < faces.size(); ++i)
+    if (faces[i].first == faces[i + 1].first) {
+      const std::int64_t p = faces[i].second, q = faces[i + 1].second;
+      nb[std::size_t(p / 4)][std::size_t(p % 4)] = std::int32_t(q / 4);
+      nb[std::size_t(q / 4)][std::size_t(q % 4)] = std::int32_t(p / 4);
+    }
+  return nb;
+}
+
+template bool adapt_body<float>(SimBody<float>&, double);
+template bool adapt_body<double>(SimBody<double>&, double);
+
+}  // namespace pliant::detail

@@ -1,0 +1,54 @@
+// Adaptivity (ActiveDef::Kind::adaptive, AdaptDef; docs/multiresolution.md "Adaptivity"): where a
+// multiresolution body's levels are active changes while it runs. At the ticks where every level's
+// window ends (the only points where no level is in the middle of a step), the strain measure of
+// AdaptDef decides which coarse nodes split and which split nodes merge back; ActivationState
+// re-evaluates the activation around them, and apply_activation rebuilds the level arrays it
+// drives (stepped runs, roles, ghosts, receivers, masses, regions). Nodes that become active take
+// their position and velocity from the field that was simulated there (barycentric, from the
+// neighbouring level); the mass stays exactly rho x volume and the body's linear momentum is kept
+// to rounding (a uniform velocity correction over the free nodes).
+#pragma once
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+#include "activation.hpp"
+#include "pliant/hierarchy.hpp"
+
+namespace pliant::detail {
+
+template <class T>
+struct SimBody;
+
+struct AdaptiveState {
+  std::shared_ptr<const Hierarchy> hierarchy;  // outlives `activation`, which refers to it
+  std::unique_ptr<ActivationState> activation;
+  std::vector<std::vector<std::array<std::int32_t, 4>>> neighbours;  // per level, per tet: face neighbours (-1: boundary)
+  AdaptDef def;
+  double next_check = 0;                       // s: no decision before this time
+  std::vector<double> edge;                    // per level: mean edge length at rest (m), the scale of the merge measure
+  std::vector<std::vector<double>> calm_since;  // per level, per node: time its children became calm (-1: not calm)
+  std::int64_t splits = 0, merges = 0, checks = 0, changes = 0;
+  int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
+  double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
+};
+
+// The arrays of `body` that follow from an activation (every level): stepped runs, node states,
+// ghosts and their sources, receivers and their impulse arrays, masses (stepped tets' rho V / 4,
+// ghosts' masses moved to their sources, scaled so that the body weighs rho x the volume of its
+// finest mesh), fixed / prescribed / loaded nodes among the active ones (prescribed nodes at
+// rest + offset(time)). `meshes` are the level meshes in the levels' tet order.
+template <class T>
+void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& h, const std::vector<const TetMesh*>& meshes,
+                      double time);
+
+// The face neighbours of every tet of a mesh (-1 across the boundary).
+std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh);
+
+// One decision of an adaptive body at time t (s), at a tick where every level's window ends.
+// Returns true if the activation changed (the caller re-prepares its jobs).
+template <class T>
+bool adapt_body(SimBody<T>& body, double t);
+
+}  // namespace pliant::detail

@@ -1,0 +1,199 @@
+// Adaptivity (multiresolution.active = adaptive; engine/src/multires/adaptivity.*): splits where
+// the body strains and merges where it is calm again, conserves mass exactly and linear momentum
+// to rounding at every change, does not pump energy into a vibrating body over 100 forced
+// split/merge cycles, gives the same bits for 1, 2 and 4 threads, and parses from scenes.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "pliant/scene.hpp"
+#include "pliant/world.hpp"
+
+namespace pliant {
+namespace {
+
+using ::testing::HasSubstr;
+
+// A free 10 x 4 x 4 cm rubber block of nested Kuhn levels (coarse cells 2x the fine ones).
+BodyDef block(double damping = 0) {
+  BodyDef b;
+  b.name = "block";
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = {0.1, 0.04, 0.04};
+  b.mesh.cells = {10, 4, 4};
+  b.mesh.tets_per_cell = 6;
+  b.material.young = 1e5;
+  b.material.poisson = 0.3;
+  b.material.density = 1000;
+  b.material.damping.mass = damping;
+  b.multiresolution.levels = 2;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  return b;
+}
+
+WorldDef no_gravity(int threads = 1) {
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  wd.threads = threads;
+  return wd;
+}
+
+// Every free node's mass and momentum, over all levels.
+struct Totals {
+  double mass = 0;
+  Vec3d momentum{0, 0, 0};
+};
+Totals totals(const World& w) {
+  Totals t;
+  for (int l = 0; l < w.level_count(0); ++l) {
+    const Level<double>& L = w.level<double>(0, l);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree) {
+        t.mass += L.mass[n];
+        for (int k = 0; k < 3; ++k) t.momentum[std::size_t(k)] += L.mass[n] * L.v[k][n];
+      }
+  }
+  return t;
+}
+
+// Stretch the block along x by 3% and give it a drift (body frame: the arrays are relative).
+void stretch_and_drift(World& w) {
+  for (int l = 0; l < w.level_count(0); ++l) {
+    Level<double>& L = w.level<double>(0, l);
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      L.x[0][n] = 1.03 * L.X[0][n];
+      L.v[0][n] = 0.2;
+      L.v[1][n] = -0.1;
+    }
+  }
+}
+
+TEST(Adaptivity, ForcedSplitsAndMergesConserveMassAndMomentumAndPumpNoEnergy) {
+  World w(no_gravity());
+  BodyDef b = block();
+  b.multiresolution.active.adapt.refine_above = 10;  // only the forced changes: no strain reaches 10,
+  b.multiresolution.active.adapt.coarsen_below = 0;  // and no measure is below 0
+  w.add_body(b);
+  stretch_and_drift(w);
+  const Totals t0 = totals(w);
+  const double e0 = w.energies().total();
+  const double expected_mass = 1000 * 0.1 * 0.04 * 0.04;
+  double worst_mass = 0, worst_momentum = 0, max_energy = e0;
+  int cycles = 0;
+  for (; cycles < 100; ++cycles)
+    for (int level : {1, 0}) {
+      w.force_level(0, level);
+      for (int i = 0; i < 6; ++i) w.step();
+      const Totals t = totals(w);
+      worst_mass = std::max(worst_mass, std::abs(t.mass - expected_mass) / expected_mass);
+      for (int k = 0; k < 3; ++k)
+        worst_momentum = std::max(worst_momentum, std::abs(t.momentum[std::size_t(k)] - t0.momentum[std::size_t(k)]) /
+                                                      std::abs(t0.momentum[0]));
+      max_energy = std::max(max_energy, w.energies().total());
+    }
+  const World::AdaptStats a = w.adapt_stats(0);
+  std::printf("%d cycles: %lld changes, %lld splits, %lld merges; mass %.3g, momentum %.3g (relative); energy %.6g -> "
+              "%.6g J (max %.6g)\n",
+              cycles, static_cast<long long>(a.changes), static_cast<long long>(a.splits), static_cast<long long>(a.merges),
+              worst_mass, worst_momentum, e0, w.energies().total(), max_energy);
+  EXPECT_EQ(a.changes, 200);
+  EXPECT_LT(worst_mass, 1e-13);      // 1.9e-14 measured (the issue asks for exact)
+  EXPECT_LT(worst_momentum, 1e-13);  // 5.2e-15 measured (the issue asks for 1e-9)
+  EXPECT_LE(max_energy, 1.01 * e0);  // the issue's bound; measured: never above the start. The transfers
+                                     // dissipate: the vibration's 0.010 J is gone after 200 changes
+}
+
+TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
+  // A bar clamped at x = 0, its tip pushed 1.5 cm sideways and back: the strain near the clamp
+  // passes 2% while it is bent, and the bar comes to rest after it is let go (damped).
+  World w(no_gravity());
+  BodyDef b = block(20);
+  b.mesh.max = {0.2, 0.02, 0.02};
+  b.mesh.cells = {20, 2, 2};
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-9, 1, 1};
+  b.fixed.push_back(clamp);
+  PrescribedMotionDef push;
+  push.region.min = {0.2 - 1e-9, -1, -1};
+  push.region.max = {1, 1, 1};
+  push.keyframes = {{0.0, {0, 0, 0}}, {0.1, {0, 0.03, 0}}, {0.2, {0, 0.03, 0}}, {0.3, {0, 0, 0}}};
+  b.prescribed.push_back(push);
+  w.add_body(b);
+  const std::size_t coarse_tets = w.level_info(0, 0).stepped_tets;
+  std::size_t most_fine = 0;
+  while (w.time() < 0.2) {
+    w.step();
+    most_fine = std::max(most_fine, w.level_info(0, 1).stepped_tets);
+  }
+  const World::AdaptStats bent = w.adapt_stats(0);
+  while (w.time() < 1.0) w.step();
+  const World::AdaptStats end = w.adapt_stats(0);
+  std::printf("coarse tets at rest %zu; while bent: %lld splits, up to %zu fine tets stepped; by 1 s: %lld merges, %zu fine "
+              "tets stepped\n",
+              coarse_tets, static_cast<long long>(bent.splits), most_fine, static_cast<long long>(end.merges),
+              w.level_info(0, 1).stepped_tets);
+  EXPECT_GT(bent.splits, 0);
+  EXPECT_GT(most_fine, 0u);
+  EXPECT_GT(end.merges, 0);
+  EXPECT_LT(w.level_info(0, 1).stepped_tets, most_fine);
+}
+
+std::uint64_t adaptive_hash(int threads) {
+  World w(no_gravity(threads));
+  w.add_body(block());
+  stretch_and_drift(w);
+  for (int i = 0; i < 200; ++i) {
+    if (i == 50) w.force_level(0, 1);
+    if (i == 120) w.force_level(0, 0);
+    w.step();
+  }
+  return w.state_hash();
+}
+
+TEST(Adaptivity, SameBitsForOneTwoAndFourThreads) {
+  const std::uint64_t h1 = adaptive_hash(1);
+  EXPECT_EQ(adaptive_hash(2), h1);
+  EXPECT_EQ(adaptive_hash(4), h1);
+}
+
+TEST(Adaptivity, SceneKeysAndTheirErrors) {
+  const SceneDef s = parse_scene(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"refine_above": 0.05, "coarsen_below": 0.01, "min_dwell": 0.1, "check_every": 0.002}}}]})",
+                                 "t.json", ".");
+  const ActiveDef& a = s.bodies[0].multiresolution.active;
+  EXPECT_EQ(a.kind, ActiveDef::Kind::adaptive);
+  EXPECT_EQ(a.adapt.refine_above, 0.05);
+  EXPECT_EQ(a.adapt.coarsen_below, 0.01);
+  EXPECT_EQ(a.adapt.min_dwell, 0.1);
+  EXPECT_EQ(a.adapt.check_every, 0.002);
+  auto error = [](const std::string& json) {
+    try {
+      parse_scene(json, "t.json", ".");
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 1, "active": "adaptive"}}]})"),
+              HasSubstr("bodies[0].multiresolution.active: \"adaptive\" needs at least 2 levels"));
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "finest", "adapt": {}}}]})"),
+              HasSubstr("bodies[0].multiresolution.adapt: only with"));
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"refine_above": 0.01, "coarsen_below": 0.02}}}]})"),
+              HasSubstr("bodies[0].multiresolution.adapt.coarsen_below: must be below refine_above"));
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"refine": 0.01}}}]})"),
+              HasSubstr("bodies[0].multiresolution.adapt.refine"));
+  World w;
+  BodyDef b = block();
+  b.multiresolution.active.adapt.coarsen_below = 1;
+  EXPECT_THROW(w.add_body(b), InputError);
+  World w2;
+  w2.add_body(BodyDef{});
+  EXPECT_THROW(w2.force_level(0, 0), InputError);
+}
+
+}  // namespace
+}  // namespace pliant
