@@ -195,5 +195,55 @@ TEST(ElementStiffness, RatioBoundsTheLargestHessianEigenvalueFromFiniteDifferenc
   }
 }
 
+// Springs: the largest |eigenvalue| of the element's 12 x 12 Hessian (N/m, by central differences
+// of element_forces_springs over the corner positions, Eigen's dense solver) now over at rest. The
+// monitor's per-spring ratio must be at least that.
+double springs_hessian_ratio(const double F[3][3]) {
+  auto largest = [](const double G[3][3]) {
+    const double h = 1e-7;  // m, on a tet of unit edges
+    Eigen::Matrix<double, 12, 12> H;
+    for (int b = 0; b < 4; ++b)
+      for (int l = 0; l < 3; ++l) {
+        UnitTet tp(G, kLambda, kMu), tm(G, kLambda, kMu);
+        tp.c.young = tm.c.young = 1e6;
+        tp.x[l][b] += h;
+        tm.x[l][b] -= h;
+        element_forces_springs(tp.c, Range{0, 1});
+        element_forces_springs(tm.c, Range{0, 1});
+        for (int q = 0; q < 12; ++q) H(q, 3 * b + l) = -(tp.cf[q][0] - tm.cf[q][0]) / (2 * h);
+      }
+    const Eigen::Matrix<double, 12, 12> S = 0.5 * (H + H.transpose());
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 12, 12>>(S, Eigen::EigenvaluesOnly)
+        .eigenvalues()
+        .cwiseAbs()
+        .maxCoeff();
+  };
+  const double I[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  return largest(F) / largest(I);
+}
+
+TEST(ElementStiffness, SpringsRatioBoundsTheHessianGrowthOfSquashedSprings) {
+  // The monitor is an estimate, 1 + |1 - L / l| per spring; measured monitor / truth: rest 1,
+  // stretched 2x 1.48, squashed to 0.3 2.26, to 0.1 1.60, flattened 1.34, generic 2.04. It must not
+  // be below the truth (a spring squashed to L / 9 is 6x stiffer across than along at rest).
+  const struct { const char* what; double F[3][3]; } cases[] = {
+      {"rest", {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+      {"stretched 2", {{2, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+      {"squashed 0.3", {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.3}}},
+      {"squashed 0.1", {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.1}}},
+      {"flattened 0.1 x 0.2", {{1, 0, 0}, {0, 0.2, 0}, {0, 0, 0.1}}},
+      {"generic", {{1.3, 0.2, -0.1}, {0.05, 0.8, 0.3}, {-0.2, 0.1, 0.4}}},
+  };
+  for (const auto& k : cases) {
+    const double truth = springs_hessian_ratio(k.F);
+    UnitTet t(k.F, kLambda, kMu);
+    double ratio = 0;
+    element_stiffness_ratio_springs(t.c, Range{0, 1}, &ratio);
+    std::printf("springs %-20s monitor %.6g, finite-difference Hessian %.6g (%.3g x)\n", k.what, ratio, truth,
+                ratio / truth);
+    EXPECT_GE(ratio, truth * (1 - 1e-6)) << k.what;
+  }
+}
+
 }  // namespace
 }  // namespace pliant
