@@ -580,11 +580,12 @@ PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) 
 TEST(WaveSpeed, SlenderBarMatchesSqrtEOverRho) {
   // nu = 0: the uniaxial wave is exact in the continuum, and the discrete bar reduces to a 1D
   // chain of linear elements with lumped mass.
-  for (int n : {1, 2}) {
+  // Measured: -0.014% (20x1x1), +0.037% (40x2x2); tolerances within 10x of that.
+  for (auto [n, tol] : {std::pair{1, 1e-3}, {2, 3e-3}}) {
     const WaveResult r = bar_wave_speed(n, 0.0, ForceModel::linear);
     std::printf("bar nu = 0, %dx%dx%d cells: c = %.4f m/s, sqrt(E/rho) = %.4f, error %+.3f%% (%zu tets, %.2f s)\n",
                 20 * n, n, n, r.speed, r.reference, 100 * r.error(), r.tets, r.wall);
-    EXPECT_NEAR(r.error(), 0, 0.02) << n << " cells across";
+    EXPECT_NEAR(r.error(), 0, tol) << n << " cells across";
   }
 }
 
@@ -594,7 +595,7 @@ TEST(WaveSpeed, SlenderBarWithPoissonRatioMatchesSqrtEOverRho) {
     const WaveResult r = bar_wave_speed(2, 0.3, m);
     std::printf("bar nu = 0.3, 40x2x2 cells, %s: c = %.4f m/s, sqrt(E/rho) = %.4f, error %+.3f%% (%.2f s)\n",
                 to_string(m), r.speed, r.reference, 100 * r.error(), r.wall);
-    EXPECT_NEAR(r.error(), 0, 0.02) << to_string(m);
+    EXPECT_NEAR(r.error(), 0, 0.01) << to_string(m);  // measured +0.376% for all three
   }
 }
 
@@ -602,7 +603,7 @@ TEST(WaveSpeed, ConfinedSlabMatchesPWaveSpeed) {
   const WaveResult r = confined_wave_speed(10, 0.3);
   std::printf("confined slab nu = 0.3, 10x30x30 cells: c = %.4f m/s, c_p = %.4f, error %+.3f%% (%zu tets, %.2f s)\n",
               r.speed, r.reference, 100 * r.error(), r.tets, r.wall);
-  EXPECT_NEAR(r.error(), 0, 0.02);
+  EXPECT_NEAR(r.error(), 0, 0.01);  // measured +0.477%
   // and it is the confined speed, not the bar speed sqrt(E / rho) = c_p / 1.16
   EXPECT_GT(r.speed, 1.1 * std::sqrt(1e6 / 1000.0));
 }
@@ -613,16 +614,16 @@ TEST(Cantilever, CorotationalDeflectionAndFirstFrequency) {
   const CantileverResult r = cantilever(ForceModel::corotational, {80, 8, 8}, 5, 0.3);
   print("corotational nu = 0.3, 80x8x8 cells x 5 tets", r);
   EXPECT_GE(r.periods, 1);
-  EXPECT_NEAR(r.deflection_error(), 0, 0.05);
-  EXPECT_NEAR(r.frequency_error(), 0, 0.05);
+  EXPECT_NEAR(r.deflection_error(), 0, 0.05);  // measured -3.96%: the mesh's locking (docs/validation.md)
+  EXPECT_NEAR(r.frequency_error(), 0, 0.03);   // measured +1.25%
 }
 
 TEST(Cantilever, LinearDeflectionAndFirstFrequency) {
   const CantileverResult r = cantilever(ForceModel::linear, {80, 8, 8}, 5, 0.0);
   print("linear nu = 0, 80x8x8 cells x 5 tets", r);
   EXPECT_GE(r.periods, 1);
-  EXPECT_NEAR(r.deflection_error(), 0, 0.05);
-  EXPECT_NEAR(r.frequency_error(), 0, 0.05);
+  EXPECT_NEAR(r.deflection_error(), 0, 0.05);  // measured -3.41%
+  EXPECT_NEAR(r.frequency_error(), 0, 0.03);   // measured +1.09%
 }
 
 TEST(Cantilever, LockingOfACoarseMeshIsVisible) {
@@ -630,8 +631,8 @@ TEST(Cantilever, LockingOfACoarseMeshIsVisible) {
   // measurement itself (it must be able to see an error).
   const CantileverResult r = cantilever(ForceModel::linear, {20, 2, 2}, 6, 0.3);
   print("linear nu = 0.3, 20x2x2 cells x 6 tets", r);
-  EXPECT_LT(r.deflection_error(), -0.2);
-  EXPECT_GT(r.frequency_error(), 0.1);
+  EXPECT_LT(r.deflection_error(), -0.2);  // measured -48.0%
+  EXPECT_GT(r.frequency_error(), 0.1);    // measured +39.0%
 }
 
 TEST(Energy, UndampedBeamUnderGravityKeepsItsTotalEnergyOver10000Steps) {
@@ -640,7 +641,7 @@ TEST(Energy, UndampedBeamUnderGravityKeepsItsTotalEnergyOver10000Steps) {
     const double dev = beam_energy_deviation(m, 10000, &peak);
     std::printf("beam %s: largest elastic energy %.4f J, max |E - E0| over 10^4 steps = %.3e of it\n", to_string(m),
                 peak, dev);
-    EXPECT_LT(dev, 0.01) << to_string(m);
+    EXPECT_LT(dev, 1e-5) << to_string(m);  // measured 1.10e-6 (9.3e-7 springs); it allowed 1% before
   }
 }
 
@@ -652,8 +653,10 @@ TEST(Energy, StronglyDeformedFreeCubeConservesTheTimeCentredEnergy) {
     const CubeEnergy e = cube_energy_deviation(m, 10000, 0.25, 0.5);
     std::printf("cube %s: time-centred energy max deviation %.3e, World::energies().total() %.3e (10^4 steps)\n",
                 to_string(m), e.centred, e.reported);
-    EXPECT_LT(e.centred, m == ForceModel::linear ? 1e-10 : 0.01) << to_string(m);
-    // The reported total (time-centred kinetic energy) follows it to O((omega dt)^2).
+    // Measured: linear 1.3e-14; corotational 2.0e-3, stvk 6.4e-3, springs 4.3e-3.
+    EXPECT_LT(e.centred, m == ForceModel::linear ? 1e-13 : 0.01) << to_string(m);
+    // The reported total (time-centred kinetic energy) follows it to O((omega dt)^2): measured
+    // 5.1e-3 (linear, corotational) to 6.5e-3 (stvk, springs).
     EXPECT_LT(e.reported, m == ForceModel::linear ? 0.01 : 0.02) << to_string(m);
   }
 }
@@ -723,7 +726,7 @@ TEST(PatchTest, InteriorOfAnAffinelyDeformedBoxStaysInEquilibrium) {
     for (std::size_t n = 0; n < lv.node_count; ++n)
       for (int k = 0; k < 3; ++k) moved = std::max(moved, std::fabs(lv.x[k][n] - x0[k][n]));
     std::printf("patch %s: largest interior motion after 200 steps %.2e m\n", to_string(m), moved);
-    EXPECT_LT(moved, 1e-12) << to_string(m);
+    EXPECT_LT(moved, 2e-15) << to_string(m);  // measured 1.8e-16 to 2.2e-16 m (round-off)
   }
 }
 
@@ -794,7 +797,8 @@ TEST(StableStep, CourantBoundCoversTheHighestMode) {
   // The consequence: the bar of WaveSpeed (20x1x1 cells, nu = 0) blows up at courant 0.9 (its
   // energy grows by 10 orders of magnitude in 200 steps; +0.1% speed error at 0.85).
   const WaveResult r = bar_wave_speed(1, 0.0, ForceModel::linear, 6, 0.9);
-  EXPECT_NEAR(r.error(), 0, 0.02) << "bar 20x1x1 at courant 0.9";
+  std::printf("bar 20x1x1 at courant 0.9: error %+.3f%%\n", 100 * r.error());
+  EXPECT_NEAR(r.error(), 0, 2e-3) << "bar 20x1x1 at courant 0.9";
 }
 
 // ================================================================================================

@@ -314,7 +314,7 @@ TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
     }
     // Measured 4.4e-14 m/s (rest and turned); a ghost off by one part in 1e6 of the organ gives ~1e-3.
     std::printf("%s: largest speed %.3g m/s\n", turned ? "turned" : "at rest", vmax);
-    EXPECT_LT(vmax, 5e-13) << (turned ? "turned" : "at rest");
+    EXPECT_LT(vmax, 4e-13) << (turned ? "turned" : "at rest");  // measured 4.65e-14 (at rest), 4.11e-14 (turned)
     EXPECT_GT(mass, 0.0);
   }
 }
