@@ -184,6 +184,7 @@ struct StressReport {
   std::vector<StressScene> failed;     // every failing scene
   std::vector<StressScene> first;      // the first few scenes, for the report
   std::map<std::string, int> counts;   // scenes per model / precision / mesh kind / dt mode
+  std::size_t mesh_files = 0, implicit_shapes = 0;  // what the scenes were drawn from
   bool ok() const { return failures == 0 && repeat_mismatches == 0 && memory_flat; }
 };
 
