@@ -142,7 +142,8 @@ TEST(ImplicitShapes, OrganDimensions) {
   const Vec3d size{0.20, 0.12, 0.08};
   for (int d = 0; d < 3; ++d) {
     EXPECT_NEAR(hi[d] - lo[d], size[d], 0.01) << "axis " << d;
-    EXPECT_NEAR(hi[d] + lo[d], 0.0, 0.03) << "axis " << d;  // centred near the origin
+    // measured 1.0e-3 m
+    EXPECT_NEAR(hi[d] + lo[d], 0.0, 0.01) << "axis " << d;  // centred near the origin
   }
   const double v = grid_volume("organ", r, 0.002);
   std::printf("organ: extent %.3f x %.3f x %.3f m, volume %.4g m^3\n", hi[0] - lo[0], hi[1] - lo[1],

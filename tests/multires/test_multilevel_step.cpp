@@ -410,7 +410,8 @@ TEST(MultilevelStep, NonNestedSplitWeighsTheBody) {
   double volume = 0;
   for (const Tet& t : finest.tets)
     volume += signed_tet_volume(finest.point(t[0]), finest.point(t[1]), finest.point(t[2]), finest.point(t[3]));
-  EXPECT_NEAR(momenta(w, id).mass, 1060 * volume, 1e-13 * 1060 * volume);
+  // measured 1.2e-15 of it
+  EXPECT_NEAR(momenta(w, id).mass, 1060 * volume, 1e-14 * 1060 * volume);
 }
 
 }  // namespace
