@@ -127,9 +127,32 @@ void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, d
   }
 }
 
+template <class T>
+void element_stiffness_ratio_springs(const ElementContext<T>& c, Range r, double* ratio) {
+  constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  for (std::size_t t = r.begin; t < r.end; ++t) {
+    double worst = 1;
+    for (const auto& edge : kEdges) {
+      const std::int32_t a = c.tet[edge[0]][t], b = c.tet[edge[1]][t];
+      double l2 = 0, L2 = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double d = double(c.x[k][b]) - double(c.x[k][a]), D = double(c.X[k][b]) - double(c.X[k][a]);
+        l2 += d * d;
+        L2 += D * D;
+      }
+      // Along the edge the tangent is k, across it k (1 - L / l): 1 + |1 - L / l| (l floored at
+      // kMinStretchSum L so that l = 0 stays finite; see element_stiffness.hpp).
+      const double l_over_L = std::max(std::sqrt(l2 / L2), kMinStretchSum);
+      worst = std::max(worst, 1 + std::fabs(1 - 1 / l_over_L));
+    }
+    ratio[t] = worst;
+  }
+}
+
 #define PLIANT_INSTANTIATE(T)                                                                      \
   template void element_stiffness_ratio_stvk<T>(const ElementContext<T>&, Range, double*);         \
-  template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*);
+  template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*); \
+  template void element_stiffness_ratio_springs<T>(const ElementContext<T>&, Range, double*);
 PLIANT_INSTANTIATE(float)
 PLIANT_INSTANTIATE(double)
 #undef PLIANT_INSTANTIATE

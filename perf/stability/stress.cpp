@@ -331,6 +331,8 @@ StressReport run_stress(const StressOptions& o) {
   };
   rep.rss_start = resident_bytes();
   const MeshCache& mc = cache(o);  // loaded before the clock and the memory baseline start
+  rep.mesh_files = mc.files.size();
+  rep.implicit_shapes = mc.implicit.size();
   log(fmt::format("stress: seed {}, {} s, up to {} threads; {} shipped meshes, {} implicit shapes{}", o.seed,
                   o.seconds, o.threads, mc.files.size(), mc.implicit.size(),
                   meshing_available() ? "" : " (no meshing in this build)"));

@@ -20,3 +20,17 @@ png_size() {
   od -An -tu1 -j16 -N8 "$1" 2>/dev/null | awk '{printf "%dx%d", $1*16777216+$2*65536+$3*256+$4, $5*16777216+$6*65536+$7*256+$8}'
 }
 scene() { printf '%s\n' "$2" > "$work/$1.json"; }  # scene NAME JSON: writes $work/NAME.json
+# Whether this build has CGAL. ctest sets PLIANT_WITH_CGAL (1 or 0) from the build's option, and
+# that decides which branch a script takes; the mesher is asked too, and a disagreement (a CGAL
+# build whose mesher fails) is a failure, never a silent skip of the CGAL checks. Run by hand
+# without the variable, the mesher's answer decides.
+has_cgal() {
+  local probe=0
+  "$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" >"$work/cgal_probe.out" 2>&1 && probe=1
+  if [ -z "${PLIANT_WITH_CGAL:-}" ]; then [ "$probe" = 1 ]; return; fi
+  if [ "$PLIANT_WITH_CGAL" != "$probe" ]; then
+    fail "cgal_probe: the build has PLIANT_WITH_CGAL=$PLIANT_WITH_CGAL but meshing a sphere gave $probe"
+    sed 's/^/    /' "$work/cgal_probe.out" | tail -5
+  fi
+  [ "$PLIANT_WITH_CGAL" = 1 ]
+}

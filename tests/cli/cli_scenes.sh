@@ -9,7 +9,7 @@ rm -rf "$work"; mkdir -p "$work"
 . "$(dirname "$0")/cli_lib.sh"  # check, ok, fail, png_size, scene
 json_num() { sed -n "s/^  \"$2\": \([-0-9.e+]*\),\{0,1\}$/\1/p" "$1" | head -n 1; }  # a top-level number of summary.json
 cgal=0
-"$pliant" mesh --implicit sphere --cell-size 0.05 -o "$work/cgal_probe.vtu" >/dev/null 2>&1 && cgal=1
+has_cgal && cgal=1
 duration=0.002
 found=0
 for s in "$src"/scenes/*.json; do

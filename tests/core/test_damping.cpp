@@ -55,7 +55,8 @@ TEST(RayleighDamping, BetaGivesPhiBetaLambdaAndPsiBetaMu) {
   World w;
   w.add_body(beam_scene("corotational", R"({"stiffness": 1e-3})").bodies[0]);
   const Level<double>& L = w.level<double>(0);
-  EXPECT_NEAR(L.lambda, 172839.50617283950, 1e-9);  // 2e5 * 0.35 / (1.35 * 0.3)
+  // measured 2.9e-11 Pa
+  EXPECT_NEAR(L.lambda, 172839.50617283950, 2.5e-10);  // 2e5 * 0.35 / (1.35 * 0.3)
   EXPECT_NEAR(L.mu, 74074.074074074074, 1e-9);      // 2e5 / 2.7
   EXPECT_DOUBLE_EQ(L.bulk_viscosity, beta * lambda);  // Pa s
   EXPECT_DOUBLE_EQ(L.shear_viscosity, beta * mu);
@@ -182,7 +183,8 @@ void check_uniform_velocity_decay(ForceModel model, Precision precision) {
   EXPECT_GT(alpha * t, 1.0);
   if (!single) {
     const double measured = double(L.v[0][0]) / v0[0];
-    EXPECT_NEAR(measured, rn, 1e-11);
+    // measured 2.7e-13
+    EXPECT_NEAR(measured, rn, 2.5e-12);
     EXPECT_LT(measured, std::exp(-alpha * t));
     EXPECT_NEAR(measured, std::exp(-alpha * t), steps * alpha * alpha * dt * dt * std::exp(-alpha * t));
     EXPECT_GT(std::exp(-alpha * t) - measured, 1e-6);
@@ -242,7 +244,10 @@ TEST(DampedEnergy, UndampedKeepsItDampedLosesSomeAtEverySample) {
     const std::vector<double> none = axial_energies(model, "{}", dt, duration, 10);
     const double e0 = none.front();
     ASSERT_GT(e0, 0.0);
-    for (double e : none) EXPECT_NEAR(e, e0, 2e-3 * e0) << model << " undamped";
+    double undamped_dev = 0;
+    for (double e : none) undamped_dev = std::max(undamped_dev, std::fabs(e / e0 - 1));
+    std::printf("%s undamped: largest |E / E0 - 1| over the samples %.2e\n", model, undamped_dev);
+    for (double e : none) EXPECT_NEAR(e, e0, 5e-4 * e0) << model << " undamped";  // measured 7.2e-5 to 8.1e-5
     std::vector<double> runs[3];
     for (int d = 0; d < 3; ++d) {
       const std::string& damping = d == 0 ? mass : d == 1 ? stiffness : both;

@@ -4,13 +4,14 @@
 //   2. cantilever under gravity: static tip deflection (Euler-Bernoulli + Timoshenko shear) and
 //      first bending frequency, corotational and linear;
 //   3. energy of undamped runs over 10^4 steps, every force model;
-//   4. patch test at the level of the World: a uniform deformation gradient gives zero interior
-//      forces and the exact stress in every tet.
+//   4. patch test at the level of the World: under a uniform deformation gradient the kernels'
+//      corner forces are -V P grad(phi) with the exact first Piola stress P (every model, double
+//      and float), interior forces vanish and the output stress is exact.
 //   5. stable step: the step at Courant number 1 covers the highest mode of M^-1 K.
-// Everything runs in double precision with threads = 2.
+// Everything runs with threads = 2, in double precision except the float patch test.
 //
-// Disabled: the tables of docs/validation.md (~10 min):
-//   test_physics_validation --gtest_also_run_disabled_tests --gtest_filter='*Sweep*'
+// The tables of docs/validation.md are generated at the end of this file: the cheap ones are
+// checked against the doc by ctest, all of them are written by scripts/validation-tables.sh.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -18,6 +19,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <utility>
 #include <random>
 #include <vector>
 
@@ -25,6 +32,8 @@
 
 namespace pliant {
 namespace {
+
+namespace fs = std::filesystem;
 
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kGravity = 9.81;
@@ -420,24 +429,65 @@ Mat expected_stress(ForceModel model, const Mat& F, const Mat& R, const Mat& S, 
   }
 }
 
+// The first Piola stress P (Pa) each model's force kernel must produce under the uniform
+// deformation gradient F, from the model's definition (docs/architecture.md), not from the kernels:
+//   linear        P = C : (sym F - I)                    (Hooke, small strain)
+//   stvk          P = F (C : E),  E = (F^T F - I) / 2     (Green-Lagrange)
+//   corotational  P = R (C : (S - I)),  F = R S           (S symmetric positive definite)
+// C : e = lambda tr(e) I + 2 mu e.
+Mat expected_piola(ForceModel model, const Mat& F, const Mat& R, const Mat& S, double lambda, double mu) {
+  Mat I{};
+  for (int i = 0; i < 3; ++i) I[i][i] = 1;
+  switch (model) {
+    case ForceModel::linear: {
+      Mat e{};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) e[i][j] = 0.5 * (F[i][j] + F[j][i]) - I[i][j];
+      return hooke(e, lambda, mu);
+    }
+    case ForceModel::stvk: {
+      Mat E = matmul(transpose(F), F);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) E[i][j] = 0.5 * (E[i][j] - I[i][j]);
+      return matmul(F, hooke(E, lambda, mu));
+    }
+    default: {
+      Mat e{};
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) e[i][j] = S[i][j] - I[i][j];
+      return matmul(R, hooke(e, lambda, mu));
+    }
+  }
+}
+
 struct PatchResult {
   double interior_force = 0, boundary_force = 0;  // N, largest |f| over interior / boundary nodes
-  double stress_error = 0, stress_scale = 0;      // Pa, largest |sigma - expected| and |expected|
+  double corner_error = 0, corner_scale = 0;      // N, largest |kernel corner force - expected| and |expected|
+  double node_error = 0;                          // N, largest |node force - sum of expected corner forces|
+  double stress_error = 0, stress_scale = 0;      // Pa, output stress (World::snapshot) against the exact one
   std::size_t interior_nodes = 0, tets = 0;
 };
 
 // Every node of a box mesh placed at x = F X + c (all nodes fixed, so one step evaluates the
-// element and gather passes at exactly that state and moves nothing).
+// element and gather passes at exactly that state and moves nothing). The kernels' own corner
+// forces (Level::corner_force) are compared with -V P grad(phi_c), V and grad(phi_c) computed here
+// from the rest corners (Dm = [X1 - X0, X2 - X0, X3 - X0], grad(phi_1..3) the rows of Dm^-1), P the
+// exact stress above. springs has no stress tensor: under x = s R X + c every edge of rest length L
+// is stretched to s L, so its tension is k (s - 1) L with k = E V / L^2 (kernels/src/element_forces.cpp),
+// pulling corner a towards b with E V (s - 1) R (X_b - X_a) / L^2.
+template <class T>
 PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) {
   std::mt19937 rng(seed);
   std::uniform_real_distribution<double> uni(-1, 1);
   const double E = 1e6, nu = 0.3, lambda = E * nu / ((1 + nu) * (1 - 2 * nu)), mu = E / (2 * (1 + nu));
   Mat R{}, S{}, F{};
   for (int i = 0; i < 3; ++i) R[i][i] = 1;
-  if (model == ForceModel::corotational) {
+  const double s_dilation = 1 + 0.02 * uni(rng);  // springs: F = s R
+  if (model == ForceModel::corotational || model == ForceModel::springs) {
     R = rotation({uni(rng), uni(rng), uni(rng)}, 0.7);
     for (int i = 0; i < 3; ++i)
-      for (int j = i; j < 3; ++j) S[i][j] = S[j][i] = (i == j ? 1 : 0) + 0.02 * uni(rng);
+      for (int j = i; j < 3; ++j)
+        S[i][j] = S[j][i] = model == ForceModel::springs ? (i == j ? s_dilation : 0) : (i == j ? 1 : 0) + 0.02 * uni(rng);
     F = matmul(R, S);
   } else {
     for (int i = 0; i < 3; ++i)
@@ -447,23 +497,27 @@ PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) 
   const Vec3d lo{0, 0, 0}, hi{0.2, 0.1, 0.15};
   BodyDef def = body_def("patch", model, E, nu);
   def.fixed.push_back(box_region({-1, -1, -1}, {1, 1, 1}));
-  World world(world_def(kCourant));
+  WorldDef wd = world_def(kCourant);
+  wd.precision = sizeof(T) == 4 ? Precision::float32 : Precision::float64;
+  World world(wd);
   const BodyId b = world.add_body(def, make_box_mesh(lo, hi, {4, 3, 5}, tets_per_cell));
-  Level<double>& lv = world.level<double>(b);
+  Level<T>& lv = world.level<T>(b);
   // x = F X + c in the world frame; the level's arrays are relative to the body origin o.
   const Vec3d o = world.body_origin(b);
+  std::vector<Vec3d> rest(lv.node_count);
   for (std::size_t n = 0; n < lv.node_count; ++n) {
     const Vec3d X = world.node_rest_position(b, n);
-    for (int i = 0; i < 3; ++i) lv.x[i][n] = F[i][0] * X[0] + F[i][1] * X[1] + F[i][2] * X[2] + c[i] - o[i];
+    rest[n] = X;
+    for (int i = 0; i < 3; ++i) lv.x[i][n] = T(F[i][0] * X[0] + F[i][1] * X[1] + F[i][2] * X[2] + c[i] - o[i]);
   }
   world.step();
   PatchResult r;
   r.tets = lv.tet_count;
   for (std::size_t n = 0; n < lv.node_count; ++n) {
     bool interior = true;
-    const Vec3d X = world.node_rest_position(b, n);
-    for (int k = 0; k < 3; ++k) interior &= X[k] > lo[k] && X[k] < hi[k];
-    const double f = std::sqrt(lv.f[0][n] * lv.f[0][n] + lv.f[1][n] * lv.f[1][n] + lv.f[2][n] * lv.f[2][n]);
+    for (int k = 0; k < 3; ++k) interior &= rest[n][k] > lo[k] && rest[n][k] < hi[k];
+    const double f = std::sqrt(double(lv.f[0][n]) * lv.f[0][n] + double(lv.f[1][n]) * lv.f[1][n] +
+                               double(lv.f[2][n]) * lv.f[2][n]);
     if (interior) {
       r.interior_force = std::max(r.interior_force, f);
       ++r.interior_nodes;
@@ -471,14 +525,60 @@ PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) 
       r.boundary_force = std::max(r.boundary_force, f);
     }
   }
-  const Mat expected = expected_stress(model, F, R, S, lambda, mu);
-  const World::Snapshot snap = world.snapshot(b);
-  for (std::size_t t = 0; t < lv.tet_count; ++t)
+  // The expected corner forces, tet by tet, and their sum at each node.
+  const Mat P = expected_piola(model, F, R, S, lambda, mu);
+  std::vector<Vec3d> node_force(lv.node_count, Vec3d{0, 0, 0});
+  for (std::size_t t = 0; t < lv.tet_count; ++t) {
+    Vec3d X[4];
+    for (int a = 0; a < 4; ++a) X[a] = rest[std::size_t(lv.tet[a][t])];
+    Mat Dm{};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) Dm[i][j] = X[j + 1][i] - X[0][i];
+    const double det_dm = det(Dm), V = det_dm / 6;
+    Mat inv{};  // Dm^-1 by cofactors; row j is grad(phi_{j+1})
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
-        r.stress_error = std::max(r.stress_error, std::fabs(snap.stress[9 * t + 3 * i + j] - expected[i][j]));
-        r.stress_scale = std::max(r.stress_scale, std::fabs(expected[i][j]));
+        const int i1 = (j + 1) % 3, i2 = (j + 2) % 3, j1 = (i + 1) % 3, j2 = (i + 2) % 3;
+        inv[i][j] = (Dm[i1][j1] * Dm[i2][j2] - Dm[i1][j2] * Dm[i2][j1]) / det_dm;
       }
+    double want[4][3] = {};
+    if (model == ForceModel::springs) {
+      for (int a = 0; a < 4; ++a)
+        for (int q = 0; q < 4; ++q) {
+          if (q == a) continue;
+          const Vec3d D{X[q][0] - X[a][0], X[q][1] - X[a][1], X[q][2] - X[a][2]};
+          const double L2 = D[0] * D[0] + D[1] * D[1] + D[2] * D[2];
+          for (int i = 0; i < 3; ++i)
+            want[a][i] += E * V * (s_dilation - 1) * (R[i][0] * D[0] + R[i][1] * D[1] + R[i][2] * D[2]) / L2;
+        }
+    } else {
+      for (int a = 1; a < 4; ++a)
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) want[a][i] -= V * P[i][j] * inv[a - 1][j];
+          want[0][i] -= want[a][i];
+        }
+    }
+    for (int a = 0; a < 4; ++a)
+      for (int i = 0; i < 3; ++i) {
+        r.corner_error = std::max(r.corner_error, std::fabs(double(lv.corner_force[3 * a + i][t]) - want[a][i]));
+        r.corner_scale = std::max(r.corner_scale, std::fabs(want[a][i]));
+        node_force[std::size_t(lv.tet[a][t])][i] += want[a][i];
+      }
+  }
+  for (std::size_t n = 0; n < lv.node_count; ++n)
+    for (int i = 0; i < 3; ++i) r.node_error = std::max(r.node_error, std::fabs(double(lv.f[i][n]) - node_force[n][i]));
+  // The output stress (World::snapshot, a separate scalar copy of each model's stress for the
+  // VTU files) against the exact Cauchy stress.
+  if (model != ForceModel::springs) {
+    const Mat expected = expected_stress(model, F, R, S, lambda, mu);
+    const World::Snapshot snap = world.snapshot(b);
+    for (std::size_t t = 0; t < lv.tet_count; ++t)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+          r.stress_error = std::max(r.stress_error, std::fabs(snap.stress[9 * t + 3 * i + j] - expected[i][j]));
+          r.stress_scale = std::max(r.stress_scale, std::fabs(expected[i][j]));
+        }
+  }
   return r;
 }
 
@@ -489,11 +589,12 @@ PatchResult patch_test(ForceModel model, int tets_per_cell, std::uint32_t seed) 
 TEST(WaveSpeed, SlenderBarMatchesSqrtEOverRho) {
   // nu = 0: the uniaxial wave is exact in the continuum, and the discrete bar reduces to a 1D
   // chain of linear elements with lumped mass.
-  for (int n : {1, 2}) {
+  // Measured: -0.014% (20x1x1), +0.037% (40x2x2); tolerances within 10x of that.
+  for (auto [n, tol] : {std::pair{1, 1e-3}, {2, 3e-3}}) {
     const WaveResult r = bar_wave_speed(n, 0.0, ForceModel::linear);
     std::printf("bar nu = 0, %dx%dx%d cells: c = %.4f m/s, sqrt(E/rho) = %.4f, error %+.3f%% (%zu tets, %.2f s)\n",
                 20 * n, n, n, r.speed, r.reference, 100 * r.error(), r.tets, r.wall);
-    EXPECT_NEAR(r.error(), 0, 0.02) << n << " cells across";
+    EXPECT_NEAR(r.error(), 0, tol) << n << " cells across";
   }
 }
 
@@ -503,7 +604,7 @@ TEST(WaveSpeed, SlenderBarWithPoissonRatioMatchesSqrtEOverRho) {
     const WaveResult r = bar_wave_speed(2, 0.3, m);
     std::printf("bar nu = 0.3, 40x2x2 cells, %s: c = %.4f m/s, sqrt(E/rho) = %.4f, error %+.3f%% (%.2f s)\n",
                 to_string(m), r.speed, r.reference, 100 * r.error(), r.wall);
-    EXPECT_NEAR(r.error(), 0, 0.02) << to_string(m);
+    EXPECT_NEAR(r.error(), 0, 0.01) << to_string(m);  // measured +0.376% for all three
   }
 }
 
@@ -511,7 +612,7 @@ TEST(WaveSpeed, ConfinedSlabMatchesPWaveSpeed) {
   const WaveResult r = confined_wave_speed(10, 0.3);
   std::printf("confined slab nu = 0.3, 10x30x30 cells: c = %.4f m/s, c_p = %.4f, error %+.3f%% (%zu tets, %.2f s)\n",
               r.speed, r.reference, 100 * r.error(), r.tets, r.wall);
-  EXPECT_NEAR(r.error(), 0, 0.02);
+  EXPECT_NEAR(r.error(), 0, 0.01);  // measured +0.477%
   // and it is the confined speed, not the bar speed sqrt(E / rho) = c_p / 1.16
   EXPECT_GT(r.speed, 1.1 * std::sqrt(1e6 / 1000.0));
 }
@@ -522,16 +623,16 @@ TEST(Cantilever, CorotationalDeflectionAndFirstFrequency) {
   const CantileverResult r = cantilever(ForceModel::corotational, {80, 8, 8}, 5, 0.3);
   print("corotational nu = 0.3, 80x8x8 cells x 5 tets", r);
   EXPECT_GE(r.periods, 1);
-  EXPECT_NEAR(r.deflection_error(), 0, 0.05);
-  EXPECT_NEAR(r.frequency_error(), 0, 0.05);
+  EXPECT_NEAR(r.deflection_error(), 0, 0.05);  // measured -3.96%: the mesh's locking (docs/validation.md)
+  EXPECT_NEAR(r.frequency_error(), 0, 0.03);   // measured +1.25%
 }
 
 TEST(Cantilever, LinearDeflectionAndFirstFrequency) {
   const CantileverResult r = cantilever(ForceModel::linear, {80, 8, 8}, 5, 0.0);
   print("linear nu = 0, 80x8x8 cells x 5 tets", r);
   EXPECT_GE(r.periods, 1);
-  EXPECT_NEAR(r.deflection_error(), 0, 0.05);
-  EXPECT_NEAR(r.frequency_error(), 0, 0.05);
+  EXPECT_NEAR(r.deflection_error(), 0, 0.05);  // measured -3.41%
+  EXPECT_NEAR(r.frequency_error(), 0, 0.03);   // measured +1.09%
 }
 
 TEST(Cantilever, LockingOfACoarseMeshIsVisible) {
@@ -539,8 +640,8 @@ TEST(Cantilever, LockingOfACoarseMeshIsVisible) {
   // measurement itself (it must be able to see an error).
   const CantileverResult r = cantilever(ForceModel::linear, {20, 2, 2}, 6, 0.3);
   print("linear nu = 0.3, 20x2x2 cells x 6 tets", r);
-  EXPECT_LT(r.deflection_error(), -0.2);
-  EXPECT_GT(r.frequency_error(), 0.1);
+  EXPECT_LT(r.deflection_error(), -0.2);  // measured -48.0%
+  EXPECT_GT(r.frequency_error(), 0.1);    // measured +39.0%
 }
 
 TEST(Energy, UndampedBeamUnderGravityKeepsItsTotalEnergyOver10000Steps) {
@@ -549,7 +650,7 @@ TEST(Energy, UndampedBeamUnderGravityKeepsItsTotalEnergyOver10000Steps) {
     const double dev = beam_energy_deviation(m, 10000, &peak);
     std::printf("beam %s: largest elastic energy %.4f J, max |E - E0| over 10^4 steps = %.3e of it\n", to_string(m),
                 peak, dev);
-    EXPECT_LT(dev, 0.01) << to_string(m);
+    EXPECT_LT(dev, 1e-5) << to_string(m);  // measured 1.10e-6 (9.3e-7 springs); it allowed 1% before
   }
 }
 
@@ -561,26 +662,49 @@ TEST(Energy, StronglyDeformedFreeCubeConservesTheTimeCentredEnergy) {
     const CubeEnergy e = cube_energy_deviation(m, 10000, 0.25, 0.5);
     std::printf("cube %s: time-centred energy max deviation %.3e, World::energies().total() %.3e (10^4 steps)\n",
                 to_string(m), e.centred, e.reported);
-    EXPECT_LT(e.centred, m == ForceModel::linear ? 1e-10 : 0.01) << to_string(m);
-    // The reported total (time-centred kinetic energy) follows it to O((omega dt)^2).
+    // Measured: linear 1.3e-14; corotational 2.0e-3, stvk 6.4e-3, springs 4.3e-3.
+    EXPECT_LT(e.centred, m == ForceModel::linear ? 1e-13 : 0.01) << to_string(m);
+    // The reported total (time-centred kinetic energy) follows it to O((omega dt)^2): measured
+    // 5.1e-3 (linear, corotational) to 6.5e-3 (stvk, springs).
     EXPECT_LT(e.reported, m == ForceModel::linear ? 0.01 : 0.02) << to_string(m);
   }
 }
 
-TEST(PatchTest, UniformDeformationGradientGivesZeroInteriorForcesAndExactStress) {
+// Tolerances relative to the largest expected corner force (corner, node) or boundary force
+// (interior) or stress (output stress): round-off, within 10x of the largest measured over the
+// 4 models x 2 meshes (Release, g++ 12, Intel Rocket Lake; docs/validation.md section 4).
+struct PatchTolerance {
+  double corner, node, interior, stress;
+};
+template <class T>
+void check_patch(PatchTolerance tol) {
   std::uint32_t seed = 7;
-  for (ForceModel m : {ForceModel::linear, ForceModel::stvk, ForceModel::corotational})
+  for (ForceModel m : {ForceModel::linear, ForceModel::stvk, ForceModel::corotational, ForceModel::springs})
     for (int tets_per_cell : {5, 6}) {
-      const PatchResult r = patch_test(m, tets_per_cell, seed++);
-      std::printf("patch %s, %d tets/cell: %zu interior nodes, max |f| interior %.2e N vs boundary %.2e N; "
-                  "stress error %.2e of %.2e Pa\n",
-                  to_string(m), tets_per_cell, r.interior_nodes, r.interior_force, r.boundary_force, r.stress_error,
-                  r.stress_scale);
+      const PatchResult r = patch_test<T>(m, tets_per_cell, seed++);
+      std::printf("patch %s %s, %d tets/cell: corner forces %.2e of %.2e N; node forces %.2e N; %zu interior "
+                  "nodes, max |f| interior %.2e N vs boundary %.2e N; output stress error %.2e of %.2e Pa\n",
+                  to_string(m), sizeof(T) == 4 ? "float" : "double", tets_per_cell, r.corner_error, r.corner_scale,
+                  r.node_error, r.interior_nodes, r.interior_force, r.boundary_force, r.stress_error, r.stress_scale);
       ASSERT_GT(r.interior_nodes, 0u);
-      ASSERT_GT(r.boundary_force, 0);
-      EXPECT_LT(r.interior_force, 1e-9 * r.boundary_force) << to_string(m) << " " << tets_per_cell;
-      EXPECT_LT(r.stress_error, 1e-9 * r.stress_scale) << to_string(m) << " " << tets_per_cell;
+      ASSERT_GT(r.corner_scale, 0);
+      EXPECT_LT(r.corner_error, tol.corner * r.corner_scale) << to_string(m) << " " << tets_per_cell;
+      EXPECT_LT(r.node_error, tol.node * r.corner_scale) << to_string(m) << " " << tets_per_cell;
+      // springs are not a continuum: a uniform stretch leaves interior forces (not a patch test)
+      if (m != ForceModel::springs) {
+        EXPECT_LT(r.interior_force, tol.interior * r.boundary_force) << to_string(m) << " " << tets_per_cell;
+        EXPECT_LT(r.stress_error, tol.stress * r.stress_scale) << to_string(m) << " " << tets_per_cell;
+      }
     }
+}
+
+// Measured (largest over models and meshes), double: corner 2.9e-13, node 2.6e-12, interior
+// 6.7e-13, output stress 2.8e-13; float: corner 1.2e-4, node 5.2e-4, interior 1.4e-4, stress 1.2e-4.
+TEST(PatchTest, KernelCornerForcesAreTheExactStressOfAnAffineStateDouble) {
+  check_patch<double>({2e-12, 2e-11, 5e-12, 2e-12});
+}
+TEST(PatchTest, KernelCornerForcesAreTheExactStressOfAnAffineStateFloat) {
+  check_patch<float>({1e-3, 3e-3, 1e-3, 1e-3});
 }
 
 TEST(PatchTest, InteriorOfAnAffinelyDeformedBoxStaysInEquilibrium) {
@@ -611,7 +735,7 @@ TEST(PatchTest, InteriorOfAnAffinelyDeformedBoxStaysInEquilibrium) {
     for (std::size_t n = 0; n < lv.node_count; ++n)
       for (int k = 0; k < 3; ++k) moved = std::max(moved, std::fabs(lv.x[k][n] - x0[k][n]));
     std::printf("patch %s: largest interior motion after 200 steps %.2e m\n", to_string(m), moved);
-    EXPECT_LT(moved, 1e-12) << to_string(m);
+    EXPECT_LT(moved, 2e-15) << to_string(m);  // measured 1.8e-16 to 2.2e-16 m (round-off)
   }
 }
 
@@ -619,7 +743,8 @@ TEST(PatchTest, InteriorOfAnAffinelyDeformedBoxStaysInEquilibrium) {
 
 // Highest eigenfrequency of M^-1 K (linear model, lumped mass) by power iteration: the forces of
 // a displacement u are read from a step of a negligible dt (1e-30 s).
-double highest_frequency(std::array<int, 3> cells, int tets_per_cell, double nu, Vec3d size, double* bound) {
+double highest_frequency(std::array<int, 3> cells, int tets_per_cell, double nu, Vec3d size, double* bound,
+                         double* geometric = nullptr, double* measured = nullptr) {
   WorldDef wd = world_def(1.0);
   wd.time_step.dt = 1e-30;
   World world(wd);
@@ -630,6 +755,8 @@ double highest_frequency(std::array<int, 3> cells, int tets_per_cell, double nu,
   *bound = 2 / world.stable_dt();  // the frequency the step at C = 1 is built for (no damping)
   std::printf("  2 c_p / h_min = %.1f rad/s, measured (Lanczos) %.1f rad/s, step built for %.1f rad/s\n",
               lv.omega_geometric, lv.omega_measured, lv.omega_max);
+  if (geometric) *geometric = lv.omega_geometric;
+  if (measured) *measured = lv.omega_measured;
   const std::size_t N = lv.node_count;
   std::mt19937 rng(3);
   std::normal_distribution<double> g;
@@ -682,49 +809,198 @@ TEST(StableStep, CourantBoundCoversTheHighestMode) {
   // The consequence: the bar of WaveSpeed (20x1x1 cells, nu = 0) blows up at courant 0.9 (its
   // energy grows by 10 orders of magnitude in 200 steps; +0.1% speed error at 0.85).
   const WaveResult r = bar_wave_speed(1, 0.0, ForceModel::linear, 6, 0.9);
-  EXPECT_NEAR(r.error(), 0, 0.02) << "bar 20x1x1 at courant 0.9";
+  std::printf("bar 20x1x1 at courant 0.9: error %+.3f%%\n", 100 * r.error());
+  EXPECT_NEAR(r.error(), 0, 2e-3) << "bar 20x1x1 at courant 0.9";
 }
 
 // ================================================================================================
-// Disabled: documentation
+// Documentation
 // ================================================================================================
 
-// Prints the convergence tables of docs/validation.md (about 10 minutes on 2 cores).
-TEST(DISABLED_ConvergenceSweep, Print) {
-  std::printf("\n| bar cells | tets/cell | nu | model | tets | steps | c error %% | wall s |\n"
-              "|---|---|---|---|---|---|---|---|\n");
+// ---- the tables of docs/validation.md ------------------------------------------------------------
+// Each table is generated here, in the doc's own markdown, and sits in the doc between
+// "<!-- table NAME -->" and "<!-- end table -->". The cheap ones (bar, slab, beam energy, stable
+// step: ~10 s) are regenerated by ValidationDoc.CheapTablesMatchAFreshRun, which fails when the
+// doc's text differs from a fresh run; all of them (the cantilever sweep takes about a minute) are
+// written into the doc by scripts/validation-tables.sh (DISABLED_ValidationTables.WriteDoc).
+
+template <class... A>
+std::string format(const char* f, A... a) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf, f, a...);
+  return buf;
+}
+
+std::string table_bar() {
+  std::string t = "| cells | tets | nu | c error (courant 0.8) | c error (courant 0.85, the tests) |\n|---|---|---|---|---|\n";
   for (int n : {1, 2, 4})
     for (double nu : {0.0, 0.3}) {
-      const WaveResult r = bar_wave_speed(n, nu, ForceModel::linear, 6, 0.8);
-      std::printf("| %dx%dx%d | 6 | %g | linear | %zu | %lld | %+.3f | %.2f |\n", 20 * n, n, n, nu, r.tets,
-                  (long long)r.steps, 100 * r.error(), r.wall);
+      const WaveResult a = bar_wave_speed(n, nu, ForceModel::linear, 6, 0.8);
+      const WaveResult b = bar_wave_speed(n, nu, ForceModel::linear, 6, kCourant);
+      t += format("| %dx%dx%d | %zu | %g | %+.3f%% | %+.3f%% |\n", 20 * n, n, n, a.tets, nu, 100 * a.error(),
+                  100 * b.error());
     }
-  std::printf("\n| slab cells | tets/cell | tets | steps | c_p error %% (free-face velocity) | c_p error %% (first zero) "
-              "| wall s |\n|---|---|---|---|---|---|---|\n");
+  return t;
+}
+
+std::string table_slab() {
+  std::string t =
+      "| slab cells | tets/cell | tets | steps | c_p error, free-face velocity | c_p error, first zero |\n"
+      "|---|---|---|---|---|---|\n";
   for (int n : {5, 10, 20})
     for (int tpc : {5, 6}) {
       double first = 0;
       const WaveResult r = confined_wave_speed(n, 0.3, tpc, kCourant, &first);
-      std::printf("| %dx%dx%d | %d | %zu | %lld | %+.3f | %+.3f | %.2f |\n", n, 3 * n, 3 * n, tpc, r.tets,
-                  (long long)r.steps, 100 * r.error(), 100 * (first / r.reference - 1), r.wall);
+      t += format("| %dx%dx%d | %d | %zu | %lld | %+.2f%%%s | %+.2f%% |\n", n, 3 * n, 3 * n, tpc, r.tets,
+                  (long long)r.steps, 100 * r.error(), n == 10 && tpc == 6 ? " (the test)" : "",
+                  100 * (first / r.reference - 1));
     }
-  struct M { std::array<int, 3> cells; int tpc; };
+  return t;
+}
+
+std::string table_cantilever() {
+  struct M {
+    std::array<int, 3> cells;
+    int tpc;
+  };
   const M meshes[] = {{{20, 2, 2}, 6}, {{20, 2, 2}, 5}, {{40, 4, 4}, 6}, {{40, 4, 4}, 5}, {{40, 6, 6}, 5},
                       {{40, 8, 8}, 5}, {{80, 4, 4}, 5}, {{60, 6, 6}, 6}, {{60, 6, 6}, 5}, {{60, 8, 8}, 5},
                       {{70, 7, 7}, 5}, {{80, 8, 8}, 6}, {{80, 8, 8}, 5}};
-  std::printf("\n| model | nu | cells | tets/cell | tets | steps | deflection error %% | f1 error %% | wall s |\n"
-              "|---|---|---|---|---|---|---|---|---|\n");
-  auto row = [](ForceModel model, const M& m, double nu) {
+  std::string t = "| model | nu | cells | tets/cell | tets | steps | deflection error | f1 error | wall s |\n"
+                  "|---|---|---|---|---|---|---|---|---|\n";
+  auto row = [&](ForceModel model, const M& m, double nu) {
     const CantileverResult r = cantilever(model, m.cells, m.tpc, nu);
-    std::printf("| %s | %g | %dx%dx%d | %d | %zu | %lld | %+.2f | %+.2f | %.1f |\n", to_string(model), nu, m.cells[0],
-                m.cells[1], m.cells[2], m.tpc, r.tets, (long long)r.steps, 100 * r.deflection_error(),
-                100 * r.frequency_error(), r.wall);
+    // bold: the two configurations the tests assert
+    const bool tested = m.cells[0] == 80 && m.cells[1] == 8 && m.tpc == 5 &&
+                        ((model == ForceModel::linear && nu == 0) || (model == ForceModel::corotational && nu == 0.3));
+    const char* b = tested ? "**" : "";
+    t += format("| %s%s%s | %s%g%s | %s%dx%dx%d%s | %s%d%s | %zu | %lld | %s%+.2f%%%s | %s%+.2f%%%s | %.1f |\n", b,
+                to_string(model), b, b, nu, b, b, m.cells[0], m.cells[1], m.cells[2], b, b, m.tpc, b, r.tets,
+                (long long)r.steps, b, 100 * r.deflection_error(), b, b, 100 * r.frequency_error(), b, r.wall);
     std::fflush(stdout);
   };
   for (const M& m : meshes)
     for (double nu : {0.0, 0.3}) row(ForceModel::linear, m, nu);
   for (const M& m : {M{{20, 2, 2}, 6}, M{{40, 4, 4}, 6}, M{{40, 4, 4}, 5}, M{{60, 6, 6}, 5}, M{{80, 8, 8}, 5}})
     row(ForceModel::corotational, m, 0.3);
+  return t;
+}
+
+std::string table_energy_beam() {
+  std::string t = "| model | largest elastic energy | max abs(E - E(0)) / largest elastic |\n|---|---|---|\n";
+  for (ForceModel m : {ForceModel::corotational, ForceModel::stvk, ForceModel::linear, ForceModel::springs}) {
+    double peak = 0;
+    const double dev = beam_energy_deviation(m, 10000, &peak);
+    t += format("| %s | %.3f J | %.1e |\n", to_string(m), peak, dev);
+  }
+  return t;
+}
+
+std::string table_energy_cube() {
+  std::string t = "| model | time-centred invariant, max deviation | `energies().total()`, max deviation |\n|---|---|---|\n";
+  for (ForceModel m : {ForceModel::corotational, ForceModel::stvk, ForceModel::linear, ForceModel::springs}) {
+    const CubeEnergy e = cube_energy_deviation(m, 10000, 0.25, 0.5);
+    t += format("| %s | %.1e | %.1e |\n", to_string(m), e.centred, e.reported);
+  }
+  return t;
+}
+
+std::string table_patch() {
+  std::string t = "| model | precision | tets/cell | corner forces | node forces | interior / boundary force | output stress |\n"
+                  "|---|---|---|---|---|---|---|\n";
+  auto rows = [&](auto tag) {
+    using T = decltype(tag);
+    std::uint32_t seed = 7;
+    for (ForceModel m : {ForceModel::linear, ForceModel::stvk, ForceModel::corotational, ForceModel::springs})
+      for (int tpc : {5, 6}) {
+        const PatchResult r = patch_test<T>(m, tpc, seed++);
+        t += format("| %s | %s | %d | %.1e | %.1e | %s | %s |\n", to_string(m), sizeof(T) == 4 ? "float" : "double", tpc,
+                    r.corner_error / r.corner_scale, r.node_error / r.corner_scale,
+                    m == ForceModel::springs ? "-" : format("%.1e", r.interior_force / r.boundary_force).c_str(),
+                    m == ForceModel::springs ? "-" : format("%.1e", r.stress_error / r.stress_scale).c_str());
+      }
+  };
+  rows(double{});
+  rows(float{});
+  return t;
+}
+
+std::string table_stable_step() {
+  struct Case {
+    const char* mesh;
+    std::array<int, 3> cells;
+    int tpc;
+    double nu;
+    Vec3d size;
+  };
+  const Case cases[] = {{"20x1x1 (bar 1 x 0.05 x 0.05)", {20, 1, 1}, 6, 0.0, {1, 0.05, 0.05}},
+                        {"20x1x1", {20, 1, 1}, 6, 0.45, {1, 0.05, 0.05}},
+                        {"40x4x4 (beam 1 x 0.1 x 0.1)", {40, 4, 4}, 6, 0.0, {1, 0.1, 0.1}},
+                        {"40x4x4", {40, 4, 4}, 5, 0.3, {1, 0.1, 0.1}},
+                        {"8x8x8 (cube)", {8, 8, 8}, 6, 0.3, {1, 1, 1}}};
+  std::string t = "| mesh | tets/cell | nu | 2 c_p / h_min | measured (Lanczos) | power iteration (3000) | ratio to 2 c_p / h_min "
+                  "| largest stable courant, step for 2 c_p / h_min / now |\n|---|---|---|---|---|---|---|---|\n";
+  for (const Case& c : cases) {
+    double bound = 0, geometric = 0, measured = 0;
+    const double omega = highest_frequency(c.cells, c.tpc, c.nu, c.size, &bound, &geometric, &measured);
+    t += format("| %s | %d | %g | %.1f | %.1f | %.1f | %.3f | %.3f / %.3f |\n", c.mesh, c.tpc, c.nu, geometric, measured,
+                omega, omega / geometric, geometric / omega, bound / omega);
+  }
+  return t;
+}
+
+const fs::path kValidationDoc = fs::path(PLIANT_SOURCE_DIR) / "docs" / "validation.md";
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+// The text between "<!-- table NAME -->\n" and "<!-- end table -->" (npos range if absent).
+std::pair<std::size_t, std::size_t> table_range(const std::string& doc, const std::string& name) {
+  const std::string open = "<!-- table " + name + " -->\n";
+  const std::size_t a = doc.find(open);
+  if (a == std::string::npos) return {std::string::npos, std::string::npos};
+  const std::size_t b = doc.find("<!-- end table -->", a);
+  return {a + open.size(), b};
+}
+
+using TableMaker = std::string (*)();
+const std::pair<const char*, TableMaker> kCheapTables[] = {
+    {"bar", table_bar}, {"slab", table_slab}, {"energy_beam", table_energy_beam}, {"stable_step", table_stable_step}};
+const std::pair<const char*, TableMaker> kSlowTables[] = {
+    {"cantilever", table_cantilever}, {"energy_cube", table_energy_cube}, {"patch", table_patch}};
+
+TEST(ValidationDoc, CheapTablesMatchAFreshRun) {
+  const std::string doc = read_text(kValidationDoc);
+  ASSERT_FALSE(doc.empty()) << kValidationDoc << " is missing: the repository ships it";
+  for (const auto& [name, make] : kCheapTables) {
+    const auto [a, b] = table_range(doc, name);
+    ASSERT_NE(b, std::string::npos) << kValidationDoc << " has no table '" << name << "'";
+    const std::string fresh = make();
+    EXPECT_EQ(doc.substr(a, b - a), fresh)
+        << "docs/validation.md, table '" << name << "', differs from a fresh run: regenerate it with "
+        << "scripts/validation-tables.sh (and explain the change)";
+  }
+}
+
+// scripts/validation-tables.sh: every table, written into docs/validation.md (PLIANT_VALIDATION_DOC
+// names another file to write instead).
+TEST(DISABLED_ValidationTables, WriteDoc) {
+  const char* env = std::getenv("PLIANT_VALIDATION_DOC");
+  const fs::path path = env ? fs::path(env) : kValidationDoc;
+  std::string doc = read_text(path);
+  ASSERT_FALSE(doc.empty()) << path;
+  auto put = [&](const char* name, TableMaker make) {
+    const std::string table = make();
+    std::printf("table %s:\n%s\n", name, table.c_str());
+    std::fflush(stdout);
+    const auto [a, b] = table_range(doc, name);
+    ASSERT_NE(b, std::string::npos) << path << " has no table '" << name << "'";
+    doc.replace(a, b - a, table);
+  };
+  for (const auto& [name, make] : kCheapTables) put(name, make);
+  for (const auto& [name, make] : kSlowTables) put(name, make);
+  std::ofstream(path) << doc;
 }
 
 }  // namespace

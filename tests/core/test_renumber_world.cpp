@@ -100,7 +100,8 @@ TEST(RenumberedFileMesh, NodeRegionsSelectTheSameMaterialPoints) {
     ref.step();
   }
   EXPECT_GT(w.max_displacement(), 1e-6);
-  EXPECT_NEAR(w.max_displacement(), ref.max_displacement(), 1e-9 * ref.max_displacement());
+  // measured 2.7e-14 of it
+  EXPECT_NEAR(w.max_displacement(), ref.max_displacement(), 2e-13 * ref.max_displacement());
 
   // An index that does not exist is reported as the user wrote it.
   BodyDef bad = def;

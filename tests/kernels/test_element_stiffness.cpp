@@ -1,11 +1,16 @@
 // The deformation monitor of the adaptive step (kernels/element_stiffness.hpp): the closed-form
-// eigenvalues, a ratio of exactly 1 at rest and under rigid rotation, and the hand-derived ratios
-// of a stretched stvk tet and an inverted corotational tet.
+// eigenvalues, a ratio of exactly 1 at rest and under rigid rotation, the hand-derived ratio of an
+// inverted corotational tet, and the ratio against the Hessian's eigenvalues computed by finite
+// differences of the force kernels and a dense solver.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <vector>
 
+#include <Eigen/Dense>
+
+#include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/element_stiffness.hpp"
 
 namespace pliant {
@@ -21,6 +26,7 @@ struct UnitTet {
   double volume[1] = {1.0 / 6};
   double grad[9][1] = {{1}, {0}, {0}, {0}, {1}, {0}, {0}, {0}, {1}};
   double rot[4][1] = {{1}, {0}, {0}, {0}};
+  double cf[12][1] = {};
   ElementContext<double> c;
   UnitTet(const double F[3][3], double lambda, double mu) {
     for (int k = 0; k < 3; ++k)
@@ -34,8 +40,20 @@ struct UnitTet {
     c.volume = volume;
     for (int q = 0; q < 9; ++q) c.grad[q] = grad[q];
     for (int q = 0; q < 4; ++q) c.rotation[q] = rot[q];
+    for (int q = 0; q < 12; ++q) c.corner_force[q] = cf[q];
     c.lambda = lambda;
     c.mu = mu;
+  }
+  void set_F(const double F[3][3]) {
+    for (int k = 0; k < 3; ++k)
+      for (int a = 1; a < 4; ++a) x[k][a] = F[k][a - 1];
+  }
+  // The first Piola stress P (Pa) from the kernel's corner forces: with Dm = I and V = 1/6,
+  // corner c = 1..3 gets f_c = -V P e_c, so column c - 1 of P is -f_c / V.
+  void piola(bool corotational, double P[3][3]) {
+    corotational ? element_forces_corotational(c, Range{0, 1}) : element_forces_stvk(c, Range{0, 1});
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) P[i][j] = -cf[3 * (j + 1) + i][0] / volume[0];
   }
   double stvk() {
     double r = 0;
@@ -50,6 +68,37 @@ struct UnitTet {
 };
 
 constexpr double kLambda = 1.7e6, kMu = 0.6e6;  // Pa
+
+// The largest |eigenvalue| of the Hessian d2 psi / dF2 (9 x 9, Pa) at F, computed without the
+// closed form: dP/dF by central differences of the force kernel's stress (P from its corner
+// forces), symmetrised, and Eigen's dense symmetric eigensolver. Step 1e-5 in F: the truncation
+// error is O(h^2) ~ 1e-10 of the stiffness, the round-off ~ 1e-16 |P| / h.
+double hessian_largest_eigenvalue(const double F[3][3], bool corotational) {
+  const double h = 1e-5;
+  Eigen::Matrix<double, 9, 9> H;
+  for (int k = 0; k < 3; ++k)
+    for (int l = 0; l < 3; ++l) {
+      double Fp[3][3], Fm[3][3], Pp[3][3], Pm[3][3];
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) Fp[i][j] = Fm[i][j] = F[i][j];
+      Fp[k][l] += h;
+      Fm[k][l] -= h;
+      UnitTet tp(Fp, kLambda, kMu), tm(Fm, kLambda, kMu);
+      if (corotational) {  // warm start from the rotation of F itself, as the step would have it
+        UnitTet t0(F, kLambda, kMu);
+        double P0[3][3];
+        t0.piola(true, P0);
+        for (int q = 0; q < 4; ++q) tp.rot[q][0] = tm.rot[q][0] = t0.rot[q][0];
+      }
+      tp.piola(corotational, Pp);
+      tm.piola(corotational, Pm);
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) H(3 * i + j, 3 * k + l) = (Pp[i][j] - Pm[i][j]) / (2 * h);
+    }
+  const Eigen::Matrix<double, 9, 9> S = 0.5 * (H + H.transpose());
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 9, 9>> eig(S, Eigen::EigenvaluesOnly);
+  return eig.eigenvalues().cwiseAbs().maxCoeff();
+}
 
 TEST(SymmetricEigenvalues, DiagonalRotatedAndRepeated) {
   double e[3];
@@ -82,24 +131,6 @@ TEST(ElementStiffness, RatioIsOneAtRestAndUnderRigidRotation) {
   EXPECT_NEAR(turned.corotational(), 1.0, 1e-9);
 }
 
-TEST(ElementStiffness, StvkUniaxialStretchMatchesTheClosedForm) {
-  // F = diag(1, 1, 2): E = diag(0, 0, 3/2), S = (3/2 lambda, 3/2 lambda, 3/2 lambda + 3 mu). The
-  // largest Gershgorin row of the scaling block is that of s = 2:
-  // S_3 + 4 (lambda + 2 mu) + 2 lambda (1 + 1) = 9.5 lambda + 11 mu.
-  const double F[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 2}};
-  UnitTet t(F, kLambda, kMu);
-  EXPECT_NEAR(t.stvk(), (9.5 * kLambda + 11 * kMu) / (3 * kLambda + 2 * kMu), 1e-12);
-  // s = 8 (the collapsing cantilever's largest stretch): E_3 = 31.5, S_3 = 31.5 lambda + 63 mu,
-  // row 3: S_3 + 64 (lambda + 2 mu) + 2 x 8 lambda = 111.5 lambda + 191 mu (48x at nu = 0.37).
-  const double G[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 8}};
-  UnitTet u(G, kLambda, kMu);
-  EXPECT_NEAR(u.stvk(), (111.5 * kLambda + 191 * kMu) / (3 * kLambda + 2 * kMu), 1e-12);
-  // Compression softens stvk: the ratio stays at most 1.
-  const double H[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.5}};
-  UnitTet w(H, kLambda, kMu);
-  EXPECT_LE(w.stvk(), 1.0);
-}
-
 TEST(ElementStiffness, CorotationalInvertedTetMatchesTheTwistModes) {
   // F = diag(1, 1, -0.5): R = I (the invertible-FEM rotation), signed stretches (1, 1, -0.5),
   // tr S - 3 = -1.5, principal stresses psi = (-1.5 lambda, -1.5 lambda, -3 mu - 1.5 lambda). The
@@ -116,6 +147,102 @@ TEST(ElementStiffness, CorotationalInvertedTetMatchesTheTwistModes) {
   const double r = u.corotational();
   EXPECT_TRUE(std::isfinite(r));
   EXPECT_GT(r, 100.0);
+}
+
+// The monitor's ratio against the Hessian's eigenvalues computed independently (above). It must
+// be at least the true ratio everywhere (the adaptive step relies on it being a bound), equal to
+// it where the closed form is exact (rest, rotation, and every corotational case: its scaling
+// block is 2 mu I + lambda 1 1^T, whose largest eigenvalue is 3 lambda + 2 mu, and its twist and
+// flip modes are exact), and not far above it for stvk, whose scaling block is bounded by its
+// largest Gershgorin row. Measured ratio / truth - 1 (lambda = 1.7e6, mu = 0.6e6 Pa): exact cases
+// within 2.4e-10 (the finite differences); stvk stretched 2x +0.259, 8x +0.092, compressed to
+// 0.5 +0.126, generic F +0.211.
+struct HessianCase {
+  const char* what;
+  double F[3][3];
+  bool corotational;
+  double max_over;  // ratio / truth - 1 allowed above (0: exact)
+};
+
+TEST(ElementStiffness, RatioBoundsTheLargestHessianEigenvalueFromFiniteDifferences) {
+  const double c = std::cos(0.5), s = std::sin(0.5);
+  const HessianCase cases[] = {
+      {"stvk rest", {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, false, 0},
+      {"stvk rotated", {{1, 0, 0}, {0, c, -s}, {0, s, c}}, false, 0},
+      {"stvk stretch 2", {{1, 0, 0}, {0, 1, 0}, {0, 0, 2}}, false, 0.3},
+      {"stvk stretch 8", {{1, 0, 0}, {0, 1, 0}, {0, 0, 8}}, false, 0.3},  // the collapsing cantilever's
+      {"stvk compressed 0.5", {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.5}}, false, 0.3},
+      {"stvk generic", {{1.3, 0.2, -0.1}, {0.05, 0.8, 0.3}, {-0.2, 0.1, 1.6}}, false, 0.3},
+      {"corotational rest", {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}, true, 0},
+      {"corotational rotated", {{1, 0, 0}, {0, c, -s}, {0, s, c}}, true, 0},
+      {"corotational inverted", {{1, 0, 0}, {0, 1, 0}, {0, 0, -0.5}}, true, 0},
+      {"corotational generic", {{1.3, 0.2, -0.1}, {0.05, 0.8, 0.3}, {-0.2, 0.1, 1.6}}, true, 0},
+      {"corotational squashed", {{1, 0, 0}, {0, 0.3, 0}, {0, 0, 0.1}}, true, 0},
+  };
+  const double fd = 2e-9;  // finite-difference error allowed (10x the largest measured)
+  for (const HessianCase& k : cases) {
+    const double truth = hessian_largest_eigenvalue(k.F, k.corotational) / (3 * kLambda + 2 * kMu);
+    UnitTet t(k.F, kLambda, kMu);
+    if (k.corotational) {
+      double P[3][3];
+      t.piola(true, P);  // the monitor reads the rotation the force pass stored
+    }
+    const double ratio = k.corotational ? t.corotational() : t.stvk();
+    std::printf("%-24s monitor %.9g, finite-difference Hessian %.9g (ratio / truth - 1 = %.2e)\n", k.what, ratio, truth,
+                ratio / truth - 1);
+    EXPECT_GE(ratio / truth - 1, -fd) << k.what;
+    EXPECT_LE(ratio / truth - 1, k.max_over + fd) << k.what;
+  }
+}
+
+// Springs: the largest |eigenvalue| of the element's 12 x 12 Hessian (N/m, by central differences
+// of element_forces_springs over the corner positions, Eigen's dense solver) now over at rest. The
+// monitor's per-spring ratio must be at least that.
+double springs_hessian_ratio(const double F[3][3]) {
+  auto largest = [](const double G[3][3]) {
+    const double h = 1e-7;  // m, on a tet of unit edges
+    Eigen::Matrix<double, 12, 12> H;
+    for (int b = 0; b < 4; ++b)
+      for (int l = 0; l < 3; ++l) {
+        UnitTet tp(G, kLambda, kMu), tm(G, kLambda, kMu);
+        tp.c.young = tm.c.young = 1e6;
+        tp.x[l][b] += h;
+        tm.x[l][b] -= h;
+        element_forces_springs(tp.c, Range{0, 1});
+        element_forces_springs(tm.c, Range{0, 1});
+        for (int q = 0; q < 12; ++q) H(q, 3 * b + l) = -(tp.cf[q][0] - tm.cf[q][0]) / (2 * h);
+      }
+    const Eigen::Matrix<double, 12, 12> S = 0.5 * (H + H.transpose());
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 12, 12>>(S, Eigen::EigenvaluesOnly)
+        .eigenvalues()
+        .cwiseAbs()
+        .maxCoeff();
+  };
+  const double I[3][3] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+  return largest(F) / largest(I);
+}
+
+TEST(ElementStiffness, SpringsRatioBoundsTheHessianGrowthOfSquashedSprings) {
+  // The monitor is an estimate, 1 + |1 - L / l| per spring; measured monitor / truth: rest 1,
+  // stretched 2x 1.48, squashed to 0.3 2.26, to 0.1 1.60, flattened 1.34, generic 2.04. It must not
+  // be below the truth (a spring squashed to L / 9 is 6x stiffer across than along at rest).
+  const struct { const char* what; double F[3][3]; } cases[] = {
+      {"rest", {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+      {"stretched 2", {{2, 0, 0}, {0, 1, 0}, {0, 0, 1}}},
+      {"squashed 0.3", {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.3}}},
+      {"squashed 0.1", {{1, 0, 0}, {0, 1, 0}, {0, 0, 0.1}}},
+      {"flattened 0.1 x 0.2", {{1, 0, 0}, {0, 0.2, 0}, {0, 0, 0.1}}},
+      {"generic", {{1.3, 0.2, -0.1}, {0.05, 0.8, 0.3}, {-0.2, 0.1, 0.4}}},
+  };
+  for (const auto& k : cases) {
+    const double truth = springs_hessian_ratio(k.F);
+    UnitTet t(k.F, kLambda, kMu);
+    double ratio = 0;
+    element_stiffness_ratio_springs(t.c, Range{0, 1}, &ratio);
+    std::printf("springs %-20s monitor %.6g, finite-difference Hessian %.6g (%.3g x)\n", k.what, ratio, truth,
+                ratio / truth);
+    EXPECT_GE(ratio, truth * (1 - 1e-6)) << k.what;
+  }
 }
 
 }  // namespace

@@ -217,7 +217,9 @@ TEST(RotationReference, HalfTurnWithASmallStretchGivesTheStretchForce) {
       scale = std::max(scale, std::fabs(f));
     }
   ASSERT_GT(scale, 0.0);
-  EXPECT_LT(worst, 1e-6 * scale) << "largest corner force error " << worst << " N of " << scale << " N";
+  std::printf("half turn plus strain: largest corner force error %.2e of %.2e N\n", worst, scale);
+  // measured 1.5e-12 of the largest force (3.06e-13 of 0.198 N); it allowed 1e-6
+  EXPECT_LT(worst, 1e-11 * scale) << "largest corner force error " << worst << " N of " << scale << " N";
   EXPECT_NEAR(std::fabs(rot[3][0]), 1.0, 1e-12);  // the stored rotation is the half turn about z
 }
 

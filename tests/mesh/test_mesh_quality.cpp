@@ -68,7 +68,8 @@ TEST(MeshQuality, RegularTet) {
   EXPECT_NEAR(q.min_dihedral_deg, 70.528779, 1e-6);
   EXPECT_NEAR(q.min_dihedral_deg, dihedral, 1e-9);
   EXPECT_NEAR(q.max_dihedral_deg, dihedral, 1e-9);
-  EXPECT_NEAR(q.worst_aspect_ratio, 1.0, 1e-12);
+  // measured 1.1e-16
+  EXPECT_NEAR(q.worst_aspect_ratio, 1.0, 1e-15);
   const double edge = 2 * std::sqrt(2.0);
   EXPECT_NEAR(q.min_edge, edge, 1e-12);
   EXPECT_NEAR(q.max_edge, edge, 1e-12);
@@ -90,7 +91,8 @@ TEST(MeshQuality, RightCornerTet) {
   EXPECT_NEAR(q.min_dihedral_deg, std::acos(1 / std::sqrt(3.0)) * 180 / std::numbers::pi, 1e-9);  // 54.7356
   EXPECT_NEAR(q.min_dihedral_deg, 54.735610, 1e-6);
   // Longest edge 2 sqrt 2, smallest altitude 2/sqrt 3 (onto the slanted face): sqrt6*sqrt(2/3)=2.
-  EXPECT_NEAR(q.worst_aspect_ratio, 2.0, 1e-12);
+  // measured 2.2e-16
+  EXPECT_NEAR(q.worst_aspect_ratio, 2.0, 2e-15);
   EXPECT_NEAR(q.min_altitude, 2 / std::sqrt(3.0), 1e-12);
   EXPECT_NEAR(q.min_edge, 2.0, 1e-12);
   EXPECT_NEAR(q.max_edge, 2 * std::sqrt(2.0), 1e-12);
@@ -104,7 +106,8 @@ TEST(MeshQuality, InvertedTetSameMeasures) {
   const MeshQuality q = compute_mesh_quality(m);
   EXPECT_NEAR(q.volume, 1.0 / 6.0, 1e-15);
   EXPECT_NEAR(q.max_dihedral_deg, 90.0, 1e-9);
-  EXPECT_NEAR(q.worst_aspect_ratio, 2.0, 1e-12);
+  // measured 2.2e-16
+  EXPECT_NEAR(q.worst_aspect_ratio, 2.0, 2e-15);
 }
 
 TEST(MeshQuality, FlatTetHasInfiniteAspect) {
@@ -143,21 +146,23 @@ TEST_P(CubeSplit, OneCube) {
   const TetMesh m = cube_grid(1, GetParam());
   ASSERT_EQ(m.tet_count(), static_cast<std::size_t>(GetParam()));
   const MeshQuality q = compute_mesh_quality(m);
-  EXPECT_NEAR(q.volume, 1.0, 1e-14);
+  // measured 1.1e-16 (146, 150)
+  EXPECT_NEAR(q.volume, 1.0, 1e-15);
   EXPECT_EQ(q.boundary_triangles, 12u);
   EXPECT_NEAR(q.min_edge, 1.0, 1e-14);
   EXPECT_NEAR(q.max_edge, std::sqrt(GetParam() == 6 ? 3.0 : 2.0), 1e-14);
-  EXPECT_NEAR(divergence_volume(m), 1.0, 1e-14);
+  EXPECT_NEAR(divergence_volume(m), 1.0, 1e-15);
 }
 
 TEST_P(CubeSplit, Grid) {
   for (int n : {2, 3, 4}) {
     const TetMesh m = cube_grid(n, GetParam());
     const MeshQuality q = compute_mesh_quality(m);
-    EXPECT_NEAR(q.volume, 1.0, 1e-12) << n;
+    // measured 5.8e-15 (157), 1.4e-15 (159), 2.8e-17 (160)
+    EXPECT_NEAR(q.volume, 1.0, 5e-14) << n;
     EXPECT_EQ(q.boundary_triangles, static_cast<std::size_t>(12 * n * n)) << n;
-    EXPECT_NEAR(divergence_volume(m), 1.0, 1e-12) << n;
-    EXPECT_NEAR(q.min_altitude, GetParam() == 6 ? 1.0 / n / std::sqrt(2.0) : 1.0 / n / std::sqrt(3.0), 1e-12);
+    EXPECT_NEAR(divergence_volume(m), 1.0, 1e-14) << n;
+    EXPECT_NEAR(q.min_altitude, GetParam() == 6 ? 1.0 / n / std::sqrt(2.0) : 1.0 / n / std::sqrt(3.0), 2.5e-16);
     EXPECT_EQ(q.bbox_max, (Vec3d{1, 1, 1}));
   }
 }

@@ -314,7 +314,7 @@ TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
     }
     // Measured 4.4e-14 m/s (rest and turned); a ghost off by one part in 1e6 of the organ gives ~1e-3.
     std::printf("%s: largest speed %.3g m/s\n", turned ? "turned" : "at rest", vmax);
-    EXPECT_LT(vmax, 5e-13) << (turned ? "turned" : "at rest");
+    EXPECT_LT(vmax, 4e-13) << (turned ? "turned" : "at rest");  // measured 4.65e-14 (at rest), 4.11e-14 (turned)
     EXPECT_GT(mass, 0.0);
   }
 }
@@ -410,7 +410,8 @@ TEST(MultilevelStep, NonNestedSplitWeighsTheBody) {
   double volume = 0;
   for (const Tet& t : finest.tets)
     volume += signed_tet_volume(finest.point(t[0]), finest.point(t[1]), finest.point(t[2]), finest.point(t[3]));
-  EXPECT_NEAR(momenta(w, id).mass, 1060 * volume, 1e-13 * 1060 * volume);
+  // measured 1.2e-15 of it
+  EXPECT_NEAR(momenta(w, id).mass, 1060 * volume, 1e-14 * 1060 * volume);
 }
 
 }  // namespace

@@ -212,7 +212,8 @@ TEST(Signals, CrossingsIgnoreRingingNearTheLevel) {
   const auto c = level_crossings(t, y, 1.0, 0.5);
   ASSERT_EQ(c.size(), 2u);
   EXPECT_NEAR(c[0], 4.0 + 0.05 / 1.05, 1e-12);  // the last raw crossing before the band was left
-  EXPECT_NEAR(c[1], 7.0 + 0.05 / 0.15, 1e-12);
+  // measured 8.9e-16
+  EXPECT_NEAR(c[1], 7.0 + 0.05 / 0.15, 8e-15);
 }
 
 // ---- Pareto front and reports -------------------------------------------------------------------
@@ -359,7 +360,8 @@ TEST(Study, TinySlenderBarStudy) {
     EXPECT_GT(r.tet_steps(), 0);
   }
   // Small strain: linear and corotational agree; runs are independent and deterministic.
-  EXPECT_NEAR(s.runs[0].values[0], s.runs[1].values[0], 1e-3);
+  // measured 4.5e-6
+  EXPECT_NEAR(s.runs[0].values[0], s.runs[1].values[0], 4e-5);
   StudyOptions again = o;
   again.sweeps = {"bodies[0].mesh.box.cells=[20,1,1]", "bodies[0].model=\"corotational\""};
   again.write_files = false;

@@ -173,7 +173,7 @@ struct TimeStepDef {
   double courant = 0.5;       // C in dt <= C h_min sqrt(rho / (lambda + 2 mu)), in (0, 1]
   bool substep = false;       // an explicit dt above the bound is split into stable sub-steps instead of refused
   // Follow the deformation: every few steps, measure how much stiffer the elements are than at
-  // rest (stvk and corotational stiffen under large stretch and inversion) and split the step
+  // rest (stvk and corotational stiffen under large stretch and inversion, springs when squashed) and split the step
   // into more sub-steps when the rest-state step would no longer be stable. Reported in
   // World::substeps() / max_substeps(). Off: the step stays as chosen at load, whatever happens.
   bool adapt = true;

@@ -501,7 +501,7 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
   double ratio = 1;
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels) {
-      if (L.model != ForceModel::stvk && L.model != ForceModel::corotational) continue;
+      if (L.model == ForceModel::linear) continue;
       scratch.resize(L.tet_count);
       const ElementContext<T> ec = element_context(L);
       double* out = scratch.data();
@@ -510,6 +510,9 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
         if (L.model == ForceModel::stvk)
           exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
                             [&](Range r) { element_stiffness_ratio_stvk(ec, shifted(r), out); });
+        else if (L.model == ForceModel::springs)
+          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
+                            [&](Range r) { element_stiffness_ratio_springs(ec, shifted(r), out); });
         else
           exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
                             [&](Range r) { element_stiffness_ratio_corotational(ec, shifted(r), out); });
@@ -523,7 +526,7 @@ template <class T>
 bool Simulation<T>::can_stiffen() const {
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels)
-      if (L.model == ForceModel::stvk || L.model == ForceModel::corotational) return true;
+      if (L.model != ForceModel::linear) return true;  // stvk, corotational, springs
   return false;
 }
 

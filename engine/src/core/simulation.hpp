@@ -202,12 +202,12 @@ class Simulation {
   // over the mass, plus gravity, minus mass damping. Non-free nodes: their stored velocity.
   // `stored` receives 1/2 sum m |v|^2 of the stored velocities.
   double centred_kinetic(Executor& exec, double h, double& stored) const;
-  // Largest element stiffness ratio over every stvk and corotational level (1 if none): how far
+  // Largest element stiffness ratio over every stvk, corotational and springs level (1 if none): how far
   // the current deformation has raised the highest frequency squared above the rest state's
   // (kernels element_stiffness.hpp). Deterministic (a max), whatever the thread split.
   // Allocation-free once `scratch` has been sized (add_body does).
   double stiffness_ratio(Executor& exec) const;
-  // True if some level's model can stiffen beyond its rest state (stvk, corotational).
+  // True if some level's model can stiffen beyond its rest state (stvk, corotational, springs).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
 

@@ -153,12 +153,13 @@ struct World::Impl {
     });
   }
 
-  // The adaptive step (TimeStepDef::adapt). Every 16 steps (every 8 once r > 1.5, every step
+  // The adaptive step (TimeStepDef::adapt). Every few steps (see next_check below; every step
   // once the body is stiffened past the trigger or sub-stepped), the elements' stiffness ratio r (how far the current deformation has raised
   // the largest Hessian eigenvalue of an element's energy over its rest value, at most;
   // kernels/element_stiffness.hpp) estimates the current highest frequency as omega_rest sqrt(r).
   // Below kAdaptTrigger nothing changes: ordinary deformations run at the step chosen at load and
-  // cost one monitor pass per 16 steps (for corotational at strains below 50%, a norm per tet). Above it, the step is split so that each sub-step has
+  // cost one monitor pass per 16 steps (for corotational at strains below 50%, a norm per tet; the
+  // first few steps after load check more often, see next_check). Above it, the step is split so that each sub-step has
   // omega_rest sqrt(r) h / 2 <= kAdaptCourant. The estimate scales the mesh's rest frequency by the
   // worst element's ratio, which is not a bound (the stiffened elements need not be the ones that set
   // omega_rest), hence the low target: with 0.7, stvk cells of the stability matrix (a beam
@@ -167,12 +168,25 @@ struct World::Impl {
   // The count goes up at once but comes down only after kAdaptRelax checks in a row have wanted
   // fewer: symplectic Euler stores the velocity half a step off, and a step size that toggles
   // from one step to the next (a ratio hovering at the trigger) pumps energy into the body (the
-  // stability matrix's inverted stvk cells diverged that way without this hysteresis).
-  static constexpr int kAdaptInterval = 8;         // steps between checks near the trigger (r > 1.5)
-  static constexpr int kAdaptIntervalFar = 16;     // and far below it: the monitor costs ~1/8 of a step
+  // stability matrix's inverted stvk cells diverged that way without this hysteresis). Every
+  // decrease still costs a little energy (the first kick after it is (h_old - h_new) a / 2 off),
+  // so it waits for 256 checks: with 32, the springs cantilever at E = 100 Pa (squashed springs
+  // re-expanding and squashing again) gained 1.5x its energy over 1500 steps at the default step;
+  // with 256 the whole matrix stays within 1.15x, never relaxing within 1.07x but 25% slower.
+  // When the next check comes: the interval starts at 1 step, doubles after every check that
+  // finds r still far from the trigger, up to kAdaptIntervalMax (the monitor costs ~1/8 of a
+  // step), and is cut so that, at the rate r rose since the last check, it would cover at most
+  // half of the way left to the trigger. (It was a fixed 16 steps, 8 above r = 1.5: the
+  // stability matrix's stvk cantilever at E = 100 Pa, loaded by 10x its own weight, went from
+  // r = 1 to 3.3 in 4 steps and diverged at step 20 of the default step, before its first check.)
+  static constexpr int kAdaptIntervalMax = 16;
+  std::int64_t next_check = 0;   // step count at which step() measures r next
+  int check_interval = 1;        // steps
+  double last_checked_ratio = 1;
+  std::int64_t last_check_step = 0;
   static constexpr double kAdaptTrigger = 2.0;
   static constexpr double kAdaptCourant = 0.35;
-  static constexpr int kAdaptRelax = 32;
+  static constexpr int kAdaptRelax = 256;
   static constexpr int kMaxAdaptiveSubsteps = 256;
   int checks_wanting_fewer = 0;
   std::vector<MeshLoadReport> load_reports;  // per body: what loading fixed in its mesh
@@ -180,6 +194,17 @@ struct World::Impl {
   void adapt_substeps() {
     stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
     max_stiffness_ratio = std::max(max_stiffness_ratio, stiffness_ratio);
+    // The next check (used while r is below the trigger and nothing is sub-stepped).
+    const double rise_per_step = (stiffness_ratio - last_checked_ratio) / double(std::max<std::int64_t>(1, steps - last_check_step));
+    int interval = std::min(2 * check_interval, kAdaptIntervalMax);
+    if (rise_per_step > 0) {
+      const double steps_to_half = 0.5 * (kAdaptTrigger - stiffness_ratio) / rise_per_step;
+      interval = std::min(interval, std::max(1, int(std::min(steps_to_half, double(kAdaptIntervalMax)))));
+    }
+    check_interval = interval;
+    last_checked_ratio = stiffness_ratio;
+    last_check_step = steps;
+    next_check = steps + interval;
     int want = base_substeps;
     if (stiffness_ratio > kAdaptTrigger) {  // (NaN: the divergence check reports it)
       // stable_dt = courant x 2 / omega_rest (undamped), so the sub-step's Courant number is
@@ -689,7 +714,7 @@ int World::add_probe(const ProbeDef& def) {
 void World::step() {
   Impl& w = *impl_;
   if (w.def.time_step.adapt && (w.stiffness_ratio > Impl::kAdaptTrigger || w.substeps > w.base_substeps ||
-                                 w.steps % (w.stiffness_ratio > 1.5 ? Impl::kAdaptInterval : Impl::kAdaptIntervalFar) == 0) &&
+                                 w.steps >= w.next_check) &&
       w.visit([](const auto& s) { return s.can_stiffen(); })) {
     w.adapt_substeps();
   }

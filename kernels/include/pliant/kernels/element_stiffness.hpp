@@ -26,9 +26,17 @@
 //                  scaling 2 mu + 3 lambda, flip 2 mu, twist unbounded as s_i + s_j -> 0. The
 //                  denominator is floored at kMinStretchSum (so a tet flattened exactly gives a
 //                  large finite ratio, not inf).
-// linear and springs keep their rest stiffness (linear is affine; a spring's tangent never exceeds
-// its rest stiffness k along the edge, and is below it across): their ratio is 1 and World does not
-// call these.
+//   springs:       a spring of rest length L and length l has the tangent k along the edge and
+//                  k (1 - L / l) across it: below k when stretched, but negative and without bound
+//                  as the spring is squashed (l < L / 2: |1 - L / l| > 1). The ratio is the
+//                  largest 1 + |1 - L / l| over the tet's six springs (L / l when squashed, below
+//                  2 when stretched), l floored at kMinStretchSum L: the sum of the magnitudes of
+//                  a spring's axial and transverse tangents over its rest k, an estimate that was
+//                  above the element's Hessian growth (finite differences) in every state tested
+//                  (tests/kernels/test_element_stiffness.cpp), not a proof. (Springs used to be
+//                  taken as never stiffening: the stability matrix's collapsing springs
+//                  cantilever, springs squashed to L / 9, gained 1.5x its energy at the default step.)
+// linear keeps its rest stiffness (it is affine): its ratio is 1 and World does not call it.
 //
 // Scalar code in double, like the energy reports. Corotational uses the rotation the last force
 // pass stored (one step old) as it is: refining it would cost more than the rest of the pass, and
@@ -46,6 +54,8 @@ inline constexpr double kMinStretchSum = 1e-3;
 // for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations).
 template <class T> void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range tets, double* ratio);
 template <class T> void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range tets, double* ratio);
+// Springs: the largest 1 + |1 - L / l| over the tet's edges (reads x, X, tet; see above).
+template <class T> void element_stiffness_ratio_springs(const ElementContext<T>& c, Range tets, double* ratio);
 
 // Eigenvalues of the symmetric 3x3 matrix a (row-major, only the upper triangle read), ascending,
 // by the trigonometric closed form. Exposed for the tests.
