@@ -140,6 +140,43 @@ TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
   EXPECT_LT(w.level_info(0, 1).stepped_tets, most_fine);
 }
 
+TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {
+  // refine_near only: no strain splits (threshold out of reach), and merges as soon as allowed.
+  World w(no_gravity());
+  BodyDef b = block(20);
+  b.mesh.max = {0.2, 0.1, 0.04};
+  b.mesh.cells = {10, 6, 2};
+  RegionDef base;
+  base.min = {-1, -1, -1};
+  base.max = {1, 1, 1e-9};
+  b.fixed.push_back(base);
+  AdaptDef& a = b.multiresolution.active.adapt;
+  a.refine_above = 1e9;
+  a.coarsen_below = 1e8;
+  a.min_dwell = 0.01;
+  a.refine_near = 0.02;
+  w.add_body(b);
+  ToolDef t;
+  t.shape.radius = 0.01;
+  // Over the slab's top near x = 0.05, down onto it, then away.
+  t.keyframes = {{0.0, {0.05, 0.05, 0.1}}, {0.1, {0.05, 0.05, 0.05}}, {0.2, {0.05, 0.05, 0.05}}, {0.3, {0.05, 0.05, 0.2}}};
+  w.add_tool(t);
+  const std::size_t all_fine = w.tet_count(0, 1);
+  std::size_t most = 0;
+  while (w.time() < 0.2) {
+    w.step();
+    most = std::max(most, w.level_info(0, 1).stepped_tets);
+  }
+  // Only the region around the tool is fine, and it is: the fine level steps there.
+  EXPECT_GT(most, 0u);
+  EXPECT_LT(most, all_fine / 2);
+  while (w.time() < 0.5) w.step();
+  std::printf("near the tool: up to %zu of %zu fine tets stepped; after it left: %zu (%lld splits, %lld merges)\n", most,
+              all_fine, w.level_info(0, 1).stepped_tets, static_cast<long long>(w.adapt_stats(0).splits),
+              static_cast<long long>(w.adapt_stats(0).merges));
+  EXPECT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+}
+
 std::uint64_t adaptive_hash(int threads) {
   World w(no_gravity(threads));
   w.add_body(block());

@@ -102,6 +102,8 @@ struct AdaptDef {
   double coarsen_below = 0.005;  // |E| below which its children may merge back (< refine_above)
   double min_dwell = 0.05;       // s a split node's children stay calm before merging
   double check_every = 0;        // s between decisions (0: every aligned tick)
+  double refine_near = 0;        // m: nodes within this distance of a tool touching the body are split,
+                                 //   and not merged while it is near (0: tools do not refine)
 };
 struct ActiveDef {
   enum class Kind { finest, coarsest, level, regions, adaptive } kind = Kind::finest;

@@ -312,7 +312,25 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     if (!body.adapt) continue;
     bool aligned = true;
     for (std::size_t l = 0; l < body.levels.size(); ++l) aligned &= due_[job_of_body_[b] + l].window_end;
-    if (!aligned || !adapt_body(body, t + h)) continue;
+    if (!aligned) continue;
+    // The tools touching the body, where they are now (body frame), for AdaptDef::refine_near.
+    std::vector<NearSegment> near;
+    if (body.adapt->def.refine_near > 0)
+      for (const ToolState<T>& tool : tools) {
+        bool touches = false;
+        for (const LevelContact<T>& lc : tool.levels) touches |= lc.body == int(b);
+        if (!touches) continue;
+        Vec3d a, e;
+        tool_axis(tool.def.shape, tool.pose_at(t + h), a, e);
+        NearSegment s;
+        for (int k = 0; k < 3; ++k) {
+          s.a[std::size_t(k)] = a[std::size_t(k)] - body.origin[std::size_t(k)];
+          s.b[std::size_t(k)] = e[std::size_t(k)] - body.origin[std::size_t(k)];
+        }
+        s.radius = tool.def.shape.radius;
+        near.push_back(s);
+      }
+    if (!adapt_body(body, t + h, near)) continue;
     adapted = true;
     relocate_probes(int(b));
   }

@@ -396,6 +396,8 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
                                        def.name, ad.refine_above, ad.coarsen_below));
         if (!(std::isfinite(ad.min_dwell) && ad.min_dwell >= 0) || !(std::isfinite(ad.check_every) && ad.check_every >= 0))
           throw InputError(fmt::format("body '{}': multiresolution.adapt.min_dwell and check_every must be finite and >= 0 (s)", def.name));
+        if (!(std::isfinite(ad.refine_near) && ad.refine_near >= 0))
+          throw InputError(fmt::format("body '{}': multiresolution.adapt.refine_near must be a finite distance >= 0 (m), got {}", def.name, ad.refine_near));
         auto a = std::make_shared<detail::AdaptiveState>();
         a->hierarchy = h;
         a->activation = std::make_unique<detail::ActivationState>(*h, detail::node_targets(*h, def.multiresolution.active));

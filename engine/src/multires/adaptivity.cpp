@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 
+#include "../collision/closest_points.hpp"
 #include "../core/simulation.hpp"
 
 namespace pliant::detail {
@@ -76,7 +77,7 @@ std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const 
 }  // namespace
 
 template <class T>
-bool adapt_body(SimBody<T>& body, double t) {
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near) {
   AdaptiveState& st = *body.adapt;
   if (t + 1e-12 < st.next_check) return false;
   st.next_check = t + st.def.check_every;
@@ -157,6 +158,19 @@ bool adapt_body(SimBody<T>& body, double t) {
   std::vector<std::vector<std::array<double, 7>>> restricted_now(static_cast<std::size_t>(levels));
   for (int l = 0; l + 1 < levels; ++l) restricted_now[std::size_t(l)] = restrict_field(body, h, l, x, v);
 
+  // Near a tool (AdaptDef::refine_near): a node within that distance of a segment's surface.
+  auto is_near = [&](int l, std::size_t i) {
+    if (near.empty() || !(st.def.refine_near > 0)) return false;
+    const P3 p{x[3 * std::size_t(l)][i], x[3 * std::size_t(l) + 1][i], x[3 * std::size_t(l) + 2][i]};
+    for (const NearSegment& s : near) {
+      double u = 0, unused = 0;
+      closest_segment_segment(s.a, s.b, p, p, u, unused);
+      const P3 c = add(s.a, mul(sub(s.b, s.a), u));
+      if (std::sqrt(norm2(sub(p, c))) <= s.radius + st.def.refine_near) return true;
+    }
+    return false;
+  };
+
   // 2. Decisions, coarse to fine, nodes in order (deterministic).
   bool any = false;
   for (int l = 0; l + 1 < levels; ++l) {
@@ -174,7 +188,8 @@ bool adapt_body(SimBody<T>& body, double t) {
         continue;
       }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
-        if (L.state[std::size_t(i)] == kNodeFree && measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above) {
+        if (L.state[std::size_t(i)] == kNodeFree &&
+            (measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above || is_near(l, std::size_t(i)))) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
@@ -185,7 +200,9 @@ bool adapt_body(SimBody<T>& body, double t) {
         const LevelLinks& lk = h.links[std::size_t(l)];
         for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
           quiet = as.target(l + 1, lk.children[std::size_t(c)]) <= l + 1;  // no child split further
-        quiet = quiet && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below;
+        for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
+          quiet = !is_near(l + 1, std::size_t(lk.children[std::size_t(c)]));  // a tool keeps its region fine
+        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below;
         if (!quiet) {
           calm[std::size_t(i)] = -1;
         } else if (calm[std::size_t(i)] < 0) {
@@ -353,7 +370,7 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
   return nb;
 }
 
-template bool adapt_body<float>(SimBody<float>&, double);
-template bool adapt_body<double>(SimBody<double>&, double);
+template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearSegment>&);
+template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearSegment>&);
 
 }  // namespace pliant::detail

@@ -48,7 +48,13 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh);
 
 // One decision of an adaptive body at time t (s), at a tick where every level's window ends.
 // Returns true if the activation changed (the caller re-prepares its jobs).
+// `near`: segments (a, b in the body frame, and a radius, m) that nodes within AdaptDef::refine_near of
+// are split and kept split (the tools touching the body).
+struct NearSegment {
+  std::array<double, 3> a{}, b{};
+  double radius = 0;
+};
 template <class T>
-bool adapt_body(SimBody<T>& body, double t);
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near = {});
 
 }  // namespace pliant::detail

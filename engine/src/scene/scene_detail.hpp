@@ -21,7 +21,7 @@ inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep",
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution", "skin"};
 inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active", "adapt"};
-inline constexpr std::string_view kAdaptKeys[] = {"refine_above", "coarsen_below", "min_dwell", "check_every"};
+inline constexpr std::string_view kAdaptKeys[] = {"refine_above", "coarsen_below", "min_dwell", "check_every", "refine_near"};
 inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
                                                  "cell_size", "scale", "translate", "repair"};

@@ -456,6 +456,7 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
     optional(v, p, "coarsen_below", [&](const auto& x, const auto& q) { a.coarsen_below = non_negative(x, q); });
     optional(v, p, "min_dwell", [&](const auto& x, const auto& q) { a.min_dwell = non_negative(x, q); });
     optional(v, p, "check_every", [&](const auto& x, const auto& q) { a.check_every = non_negative(x, q); });
+    optional(v, p, "refine_near", [&](const auto& x, const auto& q) { a.refine_near = non_negative(x, q); });
     if (!(a.coarsen_below < a.refine_above))
       fail(field(p, "coarsen_below"),
            fmt::format("must be below refine_above ({} >= {}): a node would split and merge at once", a.coarsen_below, a.refine_above));
