@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <string>
 
 #include "pliant/run.hpp"
 #include "pliant/scene.hpp"
@@ -84,6 +85,48 @@ TEST(RealTime, SceneKeyAndOverride) {
   EXPECT_TRUE(parse_scene(R"({"realtime": true, "bodies": [{"mesh": {"box": {}}}]})", "t.json", ".").realtime);
   EXPECT_FALSE(parse_scene(R"({"bodies": [{"mesh": {"box": {}}}]})", "t.json", ".").realtime);
   EXPECT_THROW(parse_scene(R"({"realtime": 1, "bodies": [{"mesh": {"box": {}}}]})", "t.json", "."), InputError);
+}
+
+// A clamped beam sagging under gravity, two levels, adaptive with thresholds so low that any strain
+// splits (at the scene's scale 1 it runs all fine); or the same beam all fine, not adaptive.
+SceneDef sagging_beam(bool adaptive) {
+  return parse_scene(std::string(R"({"duration": 0.3, "bodies": [{"name": "beam", "mesh": {"box": {"min": [0,0,0], "max": [0.2,0.04,0.04],
+      "cells": [10,2,2], "tets_per_cell": 6}}, "material": {"young": 2e5, "damping": {"mass": 5}},
+      "fixed": [{"box": {"min": [-1,-1,-1], "max": [1e-9,1,1]}}],
+      "multiresolution": {"levels": 2, )") + (adaptive ? R"("active": "adaptive", "adapt": {"refine_above": 1e-6, "coarsen_below": 5e-7, "min_dwell": 0}})"
+                                                          : R"("active": "finest"})") + "}]}",
+                     "beam.json", ".");
+}
+
+// A wall clock on which a step costs in proportion to the tets it computes: the fine level alone
+// costs 2 x real time, the coarse alone 1/4 of it.
+RunSummary costed_run(bool adaptive) {
+  const SceneDef scene = sagging_beam(adaptive);
+  RunOptions o;
+  o.write_files = false;
+  o.realtime = true;
+  World w = make_world(scene, o);
+  const double per_tet = 2.0 * w.dt() / double(w.tet_count(0, 1));
+  double slept = 0;
+  o.wall_clock = [&] { return w.tick_stats().tet_updates() * per_tet + slept; };
+  o.sleep_until = [&](double t) { slept += std::max(0.0, t - (w.tick_stats().tet_updates() * per_tet + slept)); };
+  return run_world(scene, w, o);
+}
+
+TEST(RealTime, TheControllerCoarsensAnAdaptiveBodyToKeepTheClock) {
+  const RunSummary fine = costed_run(false);
+  const RunSummary adaptive = costed_run(true);
+  std::printf("all fine: %lld of %lld steps late, lag max %.3g s; adaptive: %lld late, lag max %.3g s, scale up to %.3g, "
+              "cap down to %d (coarsened %lld times, refined %lld), %lld splits, %lld merges\n",
+              static_cast<long long>(fine.deadline_misses), static_cast<long long>(fine.steps), fine.lag_max_s,
+              static_cast<long long>(adaptive.deadline_misses), adaptive.lag_max_s, adaptive.controller_max_scale,
+              adaptive.controller_min_cap, static_cast<long long>(adaptive.controller_coarsened), static_cast<long long>(adaptive.controller_refined),
+              static_cast<long long>(adaptive.adapt.at(0).splits), static_cast<long long>(adaptive.adapt.at(0).merges));
+  EXPECT_EQ(fine.controller_coarsened, 0);  // no adaptive body: nothing to control
+  EXPECT_NEAR(fine.lag_max_s, 0.3, 0.02);   // twice too slow: 0.3 s behind after 0.3 s
+  EXPECT_GT(adaptive.controller_coarsened, 0);
+  EXPECT_GT(adaptive.controller_max_scale, 1.0);
+  EXPECT_LT(adaptive.lag_max_s, fine.lag_max_s / 4);
 }
 
 TEST(RealTime, AdvanceToStepsUpToTheHostsClock) {

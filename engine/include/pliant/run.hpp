@@ -97,6 +97,11 @@ struct RunSummary {
   bool realtime = false;
   std::int64_t deadline_misses = 0;
   double lag_mean_s = 0, lag_max_s = 0;
+  // The controller of real-time runs with adaptive bodies: how often it coarsened and refined
+  // again, and the thresholds' largest and final scale (1 = the scene's).
+  std::int64_t controller_coarsened = 0, controller_refined = 0;
+  double controller_max_scale = 1, controller_final_scale = 1;
+  int controller_min_cap = -1;  // the lowest cap on the finest level it set (-1: none)
   // Adaptive bodies (multiresolution.active = adaptive): their decisions over the run. Their
   // stepped tets per level over time are in levels.csv.
   struct Adapt {

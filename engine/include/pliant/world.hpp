@@ -169,6 +169,16 @@ class World {
   // At its next decision, an adaptive body activates every node up to `level` (0: the coarsest
   // everywhere), whatever the measure says; afterwards the measure decides again.
   void force_level(BodyId body, int level);
+  // Multiplies an adaptive body's thresholds (refine_above, coarsen_below) by `scale` >= 1 from its
+  // next decision on: above 1 it splits less and merges more (coarser, cheaper). The real-time
+  // controller of `pliant run --realtime` sets it; 1 is the scene's own thresholds.
+  void set_adapt_scale(BodyId body, double scale);
+  double adapt_scale(BodyId body) const;
+  // The finest level an adaptive body may split to (nodes split beyond it merge at its next
+  // decision); level_count - 1 lifts the cap. The real-time controller lowers it when raising the
+  // thresholds is not enough.
+  void set_adapt_cap(BodyId body, int level);
+  int adapt_cap(BodyId body) const;
 
   // ---- skins (pliant/skin.hpp, BodyDef::skin) ----
   bool has_skin(BodyId body) const;

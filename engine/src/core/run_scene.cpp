@@ -211,6 +211,11 @@ void write_summary(const fs::path& path, const RunSummary& s) {
   j["realtime"] = s.realtime;
   j["realtime_factor"] = s.realtime_factor;
   if (s.realtime) {
+    j["controller_coarsened"] = s.controller_coarsened;
+    j["controller_refined"] = s.controller_refined;
+    j["controller_max_scale"] = s.controller_max_scale;
+    j["controller_final_scale"] = s.controller_final_scale;
+    j["controller_min_cap"] = s.controller_min_cap;
     j["deadline_misses"] = s.deadline_misses;
     j["lag_mean_s"] = s.lag_mean_s;
     j["lag_max_s"] = s.lag_max_s;
@@ -347,6 +352,23 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   const double wall0 = realtime ? wall_now() : 0.0, sim0 = world.time();
   double lag_sum = 0;
   std::int64_t steps_run = 0;
+  // The real-time controller (adaptive bodies only): over windows of kControlWindow simulated
+  // seconds, the wall time spent stepping (waits left out) against the window; above kBusy of it
+  // the adaptive bodies' thresholds are raised (coarser: cheaper steps), below kIdle they come back
+  // down towards the scene's. It decides where resolution goes, never what a step computes.
+  // First the thresholds go up (to kMaxScale), then the finest level allowed comes down (a cap);
+  // with slack, the cap goes back up first, then the thresholds back down.
+  constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 4;
+  std::vector<BodyId> adaptive_bodies;
+  for (std::size_t b = 0; b < world.body_count(); ++b)
+    if (world.body_def(BodyId(b)).multiresolution.levels > 1 &&
+        world.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive)
+      adaptive_bodies.push_back(BodyId(b));
+  double window_sim0 = world.time(), window_busy = 0, scale = 1;
+  int cap = 1 << 20;
+  int finest = 0;
+  for (BodyId b : adaptive_bodies) finest = std::max(finest, world.level_count(b) - 1);
+  if (!adaptive_bodies.empty()) cap = finest;
   bool estimated = false;
   double next_progress = options.progress_every;
   try {
@@ -359,8 +381,40 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
           clock.idle(wall_now() - before);
         }
       }
+      const double step_start = realtime ? wall_now() : 0.0;
       world.step();
       ++steps_run;
+      if (realtime && !adaptive_bodies.empty()) {
+        window_busy += wall_now() - step_start;
+        const double window = world.time() - window_sim0;
+        if (window >= kControlWindow) {
+          const double load = window_busy / window;
+          // Behind the clock counts as busy: refining again while late would never catch up.
+          const double behind = (wall_now() - wall0) - (world.time() - sim0);
+          double next = scale;
+          int next_cap = cap;
+          if (load > kBusy || behind > 0.5 * kControlWindow) {
+            if (scale < kMaxScale) next = std::min(scale * kFactor, kMaxScale);
+            else if (cap > 0) next_cap = cap - 1;
+          } else if (load < kIdle && behind <= 0) {
+            if (cap < finest) next_cap = cap + 1;
+            else if (scale > 1) next = std::max(scale / kFactor, 1.0);
+          }
+          if (next != scale || next_cap != cap) {
+            (next > scale || next_cap < cap ? s.controller_coarsened : s.controller_refined)++;
+            scale = next;
+            cap = next_cap;
+            for (BodyId b : adaptive_bodies) {
+              world.set_adapt_scale(b, scale);
+              world.set_adapt_cap(b, std::min(cap, world.level_count(b) - 1));
+            }
+            s.controller_max_scale = std::max(s.controller_max_scale, scale);
+            if (cap < finest) s.controller_min_cap = s.controller_min_cap < 0 ? cap : std::min(s.controller_min_cap, cap);
+          }
+          window_sim0 = world.time();
+          window_busy = 0;
+        }
+      }
       if (realtime) {
         const double lag = (wall_now() - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
         if (lag > 0) {
@@ -411,7 +465,8 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   }
   s.wall_time_s = realtime && options.wall_clock ? wall_now() - wall0 : clock.wall();
   s.realtime_factor = s.wall_time_s > 0 ? (world.time() - sim0) / s.wall_time_s : 0;
-  if (realtime && steps_run > 0) s.lag_mean_s = lag_sum / double(steps_run);  // over every step (0 for steps on time)
+  if (realtime && steps_run > 0) s.lag_mean_s = lag_sum / double(steps_run);
+  s.controller_final_scale = scale;  // over every step (0 for steps on time)
   s.steps = world.steps();
   s.max_substeps = world.max_substeps();
   s.adapted_steps = world.adapted_steps();

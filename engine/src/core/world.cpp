@@ -557,6 +557,36 @@ void World::force_level(BodyId b, int level) {
   });
 }
 
+void World::set_adapt_scale(BodyId b, double scale) {
+  if (!(std::isfinite(scale) && scale >= 1)) throw InputError(fmt::format("set_adapt_scale: the scale must be >= 1, got {}", scale));
+  impl_->visit([&](auto& s) {
+    auto& body = impl_->body(s, b);
+    if (!body.adapt) throw InputError(fmt::format("set_adapt_scale: body '{}' is not adaptive (multiresolution.active)", body.def.name));
+    body.adapt->scale = scale;
+  });
+}
+void World::set_adapt_cap(BodyId b, int level) {
+  impl_->visit([&](auto& s) {
+    auto& body = impl_->body(s, b);
+    if (!body.adapt) throw InputError(fmt::format("set_adapt_cap: body '{}' is not adaptive (multiresolution.active)", body.def.name));
+    if (level < 0 || level >= int(body.levels.size()))
+      throw InputError(fmt::format("set_adapt_cap: level {} does not exist (0 .. {})", level, body.levels.size() - 1));
+    body.adapt->cap = level;
+  });
+}
+int World::adapt_cap(BodyId b) const {
+  return impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    return body.adapt ? std::min(body.adapt->cap, int(body.levels.size()) - 1) : int(body.levels.size()) - 1;
+  });
+}
+double World::adapt_scale(BodyId b) const {
+  return impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    return body.adapt ? body.adapt->scale : 1.0;
+  });
+}
+
 bool World::has_skin(BodyId b) const {
   return impl_->visit([&](auto& s) { return impl_->body(s, b).skin != nullptr; });
 }

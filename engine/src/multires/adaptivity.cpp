@@ -187,9 +187,16 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
         }
         continue;
       }
+      if (target == l + 1 && l + 1 > st.cap) {  // the cap came down: merge at once
+        as.set_target(l, i, l);
+        calm[std::size_t(i)] = -1;
+        ++st.merges;
+        any = true;
+        continue;
+      }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
-        if (L.state[std::size_t(i)] == kNodeFree &&
-            (measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above || is_near(l, std::size_t(i)))) {
+        if (l + 1 <= st.cap && L.state[std::size_t(i)] == kNodeFree &&
+            (measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above * st.scale || is_near(l, std::size_t(i)))) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
@@ -202,7 +209,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
           quiet = as.target(l + 1, lk.children[std::size_t(c)]) <= l + 1;  // no child split further
         for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
           quiet = !is_near(l + 1, std::size_t(lk.children[std::size_t(c)]));  // a tool keeps its region fine
-        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below;
+        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below * st.scale;
         if (!quiet) {
           calm[std::size_t(i)] = -1;
         } else if (calm[std::size_t(i)] < 0) {
