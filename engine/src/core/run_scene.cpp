@@ -32,83 +32,62 @@ World make_world(const SceneDef& scene, const RunOptions& options) {
 
 namespace {
 
-class ProbeWriter {
+// A CSV file of the run written row by row (probes.csv, tools.csv, levels.csv): opened with its
+// header when enabled, closed at the end; a disabled one ignores its rows.
+class CsvFile {
  public:
-  ProbeWriter(const fs::path& path, bool enabled) {
+  CsvFile(const fs::path& path, bool enabled, const char* header) {
     if (!enabled) return;
     file_ = std::fopen(path.string().c_str(), "w");
     if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
-    std::fputs("time,probe,x,y,z\n", file_);
+    std::fputs(header, file_);
+    std::fputc('\n', file_);
   }
-  ~ProbeWriter() {
+  ~CsvFile() {
     if (file_) std::fclose(file_);
   }
-  void write(const World& w) {
-    if (!file_) return;
-    for (std::size_t p = 0; p < w.probe_count(); ++p) {
-      const Vec3d x = w.probe_position(int(p));
-      fmt::print(file_, "{:.9g},{},{:.12g},{:.12g},{:.12g}\n", w.time(), w.probe_name(int(p)), x[0], x[1], x[2]);
+  CsvFile(const CsvFile&) = delete;
+  CsvFile& operator=(const CsvFile&) = delete;
+  std::FILE* get() const { return file_; }
+
+ private:
+  std::FILE* file_ = nullptr;
+};
+
+// probes.csv: each probe's position (m, world frame).
+void write_probes(const CsvFile& csv, const World& w) {
+  if (!csv.get()) return;
+  for (std::size_t p = 0; p < w.probe_count(); ++p) {
+    const Vec3d x = w.probe_position(int(p));
+    fmt::print(csv.get(), "{:.9g},{},{:.12g},{:.12g},{:.12g}\n", w.time(), w.probe_name(int(p)), x[0], x[1], x[2]);
+  }
+}
+constexpr const char* kProbeHeader = "time,probe,x,y,z";
+
+// tools.csv: per tool, its pose, the force the bodies exert on it (N, world frame) and its contacts.
+void write_tools(const CsvFile& csv, const World& w) {
+  if (!csv.get()) return;
+  for (std::size_t t = 0; t < w.tool_count(); ++t) {
+    const ToolPose p = w.tool_pose(ToolId(t));
+    const ToolReading r = w.tool_reading(ToolId(t));
+    fmt::print(csv.get(), "{:.9g},{},{:.12g},{:.12g},{:.12g},{:.9g},{:.9g},{:.9g},{},{:.6g}\n", w.time(),
+               w.tool_def(ToolId(t)).name, p.position[0], p.position[1], p.position[2], r.force[0], r.force[1], r.force[2],
+               r.contacts, r.max_penetration);
+  }
+}
+constexpr const char* kToolHeader = "time,tool,x,y,z,fx,fy,fz,contacts,max_penetration";
+
+// levels.csv (runs with adaptive bodies): every level's stepped tets, active and ghost nodes.
+void write_levels(const CsvFile& csv, const World& w) {
+  if (!csv.get()) return;
+  for (std::size_t b = 0; b < w.body_count(); ++b)
+    for (int l = 0; l < w.level_count(BodyId(b)) && w.level_count(BodyId(b)) > 1; ++l) {
+      const LevelInfo i = w.level_info(BodyId(b), l);
+      fmt::print(csv.get(), "{:.9g},{},{},{},{},{}\n", w.time(), w.body_def(BodyId(b)).name, l, i.stepped_tets,
+                 i.active_nodes, i.ghost_nodes);
     }
-  }
-
- private:
-  std::FILE* file_ = nullptr;
-};
-
-// tools.csv: per tool and row, its pose, the force the bodies exert on it (N, world frame) and
-// its contacts, at the probes' rate.
-class ToolWriter {
- public:
-  ToolWriter(const fs::path& path, bool enabled) {
-    if (!enabled) return;
-    file_ = std::fopen(path.string().c_str(), "w");
-    if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
-    std::fputs("time,tool,x,y,z,fx,fy,fz,contacts,max_penetration\n", file_);
-  }
-  ~ToolWriter() {
-    if (file_) std::fclose(file_);
-  }
-  void write(const World& w) {
-    if (!file_) return;
-    for (std::size_t t = 0; t < w.tool_count(); ++t) {
-      const ToolPose p = w.tool_pose(ToolId(t));
-      const ToolReading r = w.tool_reading(ToolId(t));
-      fmt::print(file_, "{:.9g},{},{:.12g},{:.12g},{:.12g},{:.9g},{:.9g},{:.9g},{},{:.6g}\n", w.time(),
-                 w.tool_def(ToolId(t)).name, p.position[0], p.position[1], p.position[2], r.force[0], r.force[1],
-                 r.force[2], r.contacts, r.max_penetration);
-    }
-  }
-
- private:
-  std::FILE* file_ = nullptr;
-};
-
-// levels.csv: for runs with adaptive bodies, every level's stepped tets, active and ghost nodes
-// over time, at the probes' rate.
-class LevelWriter {
- public:
-  LevelWriter(const fs::path& path, bool enabled) {
-    if (!enabled) return;
-    file_ = std::fopen(path.string().c_str(), "w");
-    if (!file_) throw InputError(fmt::format("{}: cannot write", path.string()));
-    std::fputs("time,body,level,stepped_tets,active_nodes,ghost_nodes\n", file_);
-  }
-  ~LevelWriter() {
-    if (file_) std::fclose(file_);
-  }
-  void write(const World& w) {
-    if (!file_) return;
-    for (std::size_t b = 0; b < w.body_count(); ++b)
-      for (int l = 0; l < w.level_count(BodyId(b)) && w.level_count(BodyId(b)) > 1; ++l) {
-        const LevelInfo i = w.level_info(BodyId(b), l);
-        fmt::print(file_, "{:.9g},{},{},{},{},{}\n", w.time(), w.body_def(BodyId(b)).name, l, i.stepped_tets, i.active_nodes,
-                   i.ghost_nodes);
-      }
-  }
-
- private:
-  std::FILE* file_ = nullptr;
-};
+}
+constexpr const char* kLevelHeader = "time,body,level,stepped_tets,active_nodes,ghost_nodes";
 
 class VtuSeries {
  public:
@@ -312,22 +291,22 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     s.files.push_back("node_map.csv");
   }
 
-  ProbeWriter probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0);
+  CsvFile probes(options.out_dir / "probes.csv", options.write_files && world.probe_count() > 0, kProbeHeader);
   if (options.write_files && world.probe_count() > 0) s.files.push_back("probes.csv");
   bool adaptive = false;
   for (std::size_t b = 0; b < world.body_count(); ++b)
     adaptive |= world.body_def(BodyId(b)).multiresolution.levels > 1 &&
                 world.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive;
-  LevelWriter level_rows(options.out_dir / "levels.csv", options.write_files && adaptive);
+  CsvFile level_rows(options.out_dir / "levels.csv", options.write_files && adaptive, kLevelHeader);
   if (options.write_files && adaptive) s.files.push_back("levels.csv");
-  level_rows.write(world);
+  write_levels(level_rows, world);
   const bool tools_csv = options.write_files && world.tool_count() > 0;
-  ToolWriter tools(options.out_dir / "tools.csv", tools_csv);
+  CsvFile tools(options.out_dir / "tools.csv", tools_csv, kToolHeader);
   if (tools_csv) s.files.push_back("tools.csv");
   for (std::size_t t = 0; t < world.tool_count(); ++t) s.tools.push_back({world.tool_def(ToolId(t)).name});
   VtuSeries vtu(options.out_dir, options.write_files && scene.output.vtu_every > 0);
-  probes.write(world);
-  tools.write(world);
+  write_probes(probes, world);
+  write_tools(tools, world);
   vtu.write(world, s.files);
   const bool frames = options.on_frame && options.frame_every > 0;
   if (frames) options.on_frame(world);
@@ -432,9 +411,9 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         st.contact_steps += r.contacts > 0;
       }
       if (world.time() + eps >= next_probe) {  // probe_every = 0: every step
-        probes.write(world);
-        tools.write(world);
-        level_rows.write(world);
+        write_probes(probes, world);
+        write_tools(tools, world);
+        write_levels(level_rows, world);
         if (scene.output.probe_every > 0) next_probe = next_due(scene.output.probe_every, world.time(), eps);
       }
       if (vtu.enabled() && world.time() + eps >= next_vtu) {
