@@ -7,7 +7,7 @@
 # coverage in every library; CGAL, pictures, tests and benchmarks off) in build-fuzz/, seeds each
 # corpus from tests/data/mesh, the small meshes of data/meshes and scenes/ (tests/fuzz/make_seeds.py),
 # then runs the harnesses one after the other under `nice -n 10`. Harnesses: gmsh (v1, v2, v4),
-# vtk (legacy, and XML misnamed .vtk), vtu (ascii, base64, zlib), tetgen (.node/.ele),
+# vtk (legacy, and XML misnamed .vtk), vtu (ascii, base64, zlib), tetgen (.node/.ele), obj (skins),
 # scene (parse_scene), overrides (--sweep and overrides, then parse_scene).
 #
 # Out: build-fuzz/fuzz/<harness>.log (libFuzzer's output with -print_final_stats), the grown
@@ -21,7 +21,7 @@ cd "$(dirname "$0")/.."
 seconds=${1:?usage: scripts/fuzz.sh SECONDS [HARNESS...]}
 shift
 harnesses=("$@")
-[ ${#harnesses[@]} -gt 0 ] || harnesses=(gmsh vtk vtu tetgen scene overrides)
+[ ${#harnesses[@]} -gt 0 ] || harnesses=(gmsh vtk vtu tetgen obj scene overrides)
 cxx=${FUZZ_CXX:-clang++-14}
 timeout_s=${FUZZ_TIMEOUT:-10}
 build=build-fuzz

@@ -7,9 +7,11 @@
 #       (its meshing unit takes minutes and 4 GB to compile; the meshing tests then check the stub),
 #       and so is the install package test (its host project would link instrumented libraries
 #       without the sanitizer runtime). Leaks are checked (LeakSanitizer); any UBSan finding fails.
-# tsan: the threaded tests (executor through World and the multilevel step, determinism across
-#       thread counts, the stress runner) built with -fsanitize=thread (build-tsan/).
-# CTEST_ARGS go to ctest, e.g. `scripts/sanitize.sh asan -R Mesh`. SAN_CXX overrides the
+# tsan: the threaded tests (the executor through World, obstacles and the multilevel step,
+#       determinism across thread counts, the stress runner, the haptic link and the tool) built
+#       with clang 14 -fsanitize=thread in build-tsan/, configured as scripts/tsan-tool.sh does so
+#       that the two share it; suppressions: tests/tsan-suppressions.txt (uninstrumented Embree only).
+# CTEST_ARGS go to ctest, e.g. `scripts/sanitize.sh asan -R Mesh`. SAN_CXX overrides the ASan
 # compiler (default g++, the project's compiler). Everything runs under `nice -n 10`.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,18 +22,18 @@ supp=$PWD/scripts/sanitizers
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
 
-configure() {  # build dir, sanitizer flags
-  nice -n 10 cmake -S . -B "$1" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$cxx" \
+configure() {  # build dir, compiler, sanitizer flags
+  nice -n 10 cmake -S . -B "$1" -G Ninja -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_COMPILER="$2" \
     "${launcher[@]}" -DPLIANT_WITH_CGAL=OFF -DPLIANT_BUILD_PERF=OFF -DPLIANT_INSTALL=OFF \
-    "-DCMAKE_CXX_FLAGS=$2 -fno-omit-frame-pointer" "-DCMAKE_EXE_LINKER_FLAGS=$2" >/dev/null
+    "-DCMAKE_CXX_FLAGS=$3" "-DCMAKE_EXE_LINKER_FLAGS=$3" "${@:4}" >/dev/null
 }
 
 # The threaded tests: every test that runs a world on 2 or more threads.
-tsan_tests='Determinism|ThreadCount|Threads\.|SameBits|Stress\.|AnyThreadCount|Multithread'
+tsan_tests='Determinism|ThreadCount|Threads\.|SameBits|Stress\.|AnyThreadCount|HapticLink|PressHold'
 
 status=0
 if [ "$what" = asan ] || [ "$what" = all ]; then
-  configure build-asan "-fsanitize=address,undefined -fno-sanitize-recover=all"
+  configure build-asan "$cxx" "-fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer"
   start=$(date +%s)
   nice -n 10 cmake --build build-asan -j2
   echo "asan: build $(( $(date +%s) - start )) s"
@@ -43,12 +45,13 @@ if [ "$what" = asan ] || [ "$what" = all ]; then
   echo "asan: tests $(( $(date +%s) - start )) s"
 fi
 if [ "$what" = tsan ] || [ "$what" = all ]; then
-  configure build-tsan "-fsanitize=thread"
+  configure build-tsan clang++-14 -fsanitize=thread -DPLIANT_NATIVE=OFF
   start=$(date +%s)
-  nice -n 10 cmake --build build-tsan -j2 --target test_world test_multilevel_step test_obstacles test_stability
+  nice -n 10 cmake --build build-tsan -j2 --target test_world test_multilevel_step test_obstacles test_stability \
+    test_haptic_link test_tool_response
   echo "tsan: build $(( $(date +%s) - start )) s"
   start=$(date +%s)
-  TSAN_OPTIONS=halt_on_error=1:second_deadlock_stack=1:suppressions=$supp/tsan.supp \
+  TSAN_OPTIONS="halt_on_error=1 second_deadlock_stack=1 suppressions=$PWD/tests/tsan-suppressions.txt" \
     nice -n 10 ctest --test-dir build-tsan -j2 --output-on-failure -R "$tsan_tests" "$@" || status=1
   echo "tsan: tests $(( $(date +%s) - start )) s"
 fi

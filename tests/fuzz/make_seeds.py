@@ -33,13 +33,28 @@ def put(harness, name, data):
 
 
 mesh_dirs = [src / "tests/data/mesh", src / "data/meshes"]
-for ext, harness in [(".msh", "gmsh"), (".vtk", "vtk"), (".vtu", "vtu")]:
+for ext, harness in [(".msh", "gmsh"), (".vtk", "vtk"), (".vtu", "vtu"), (".obj", "obj")]:
     for d in mesh_dirs:
         for p in small(d.glob("*" + ext)):
             put(harness, f"{d.parent.name}_{p.name}", p.read_bytes())
 # An XML grid misnamed .vtk is read as .vtu: the .vtk harness gets the .vtu seeds too.
 for p in small((src / "tests/data/mesh").glob("*.vtu")):
     put("vtk", "xml_" + p.name, p.read_bytes())
+
+# OBJ: the shipped surfaces are large; a small one in every face form the reader takes.
+put("obj", "gen_forms.obj", "# cube corner\nv 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nvt 0 0\nvn 0 0 1\n"
+    "f 1 3 2\nf 1/1 2/1 4/1\nf 1//1 4//1 3//1\nf -3/1/1 -2/1/1 -1/1/1\nf 1 2 3 4\n")
+for p in sorted((src / "data/meshes").glob("*.obj")):
+    # Its first 200 vertices and up to 200 faces on them.
+    vs, fs = [], []
+    for line in p.read_bytes().splitlines(keepends=True):
+        if line.startswith(b"v ") and len(vs) < 200:
+            vs.append(line)
+        elif line.startswith(b"f ") and len(fs) < 200:
+            idx = [int(t.split(b"/")[0]) for t in line.split()[1:]]
+            if all(0 < i <= 200 for i in idx):
+                fs.append(line)
+    put("obj", "head_" + p.name, b"".join(vs + fs))
 
 # TetGen: "<.node>\0<.ele>".
 for node in small((src / "tests/data/mesh").glob("*.node")):
