@@ -135,3 +135,7 @@ sweeps = [
 ]
 for i, p in enumerate(scenes):
     put("overrides", f"{i:02d}_{p.stem}", sweeps[i % len(sweeps)].encode() + b"\0" + p.read_bytes())
+
+# Inputs that once found a defect (tests/fuzz/regressions/<harness>-<what>): replayed first.
+for p in sorted((src / "tests/fuzz/regressions").glob("*-*")):
+    put(p.name.split("-")[0], "regression_" + p.name, p.read_bytes())
