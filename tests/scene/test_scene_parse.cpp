@@ -485,6 +485,28 @@ TEST(SceneOverrides, BadOverridesNameThemselves) {
   }
 }
 
+// Found by fuzz_overrides (tests/fuzz): a comment key ("//...", free-form, no key list) that is not
+// valid UTF-8 was put into the document, whose dump then threw nlohmann's type_error 316 out of
+// apply_scene_overrides, an exception that is not an InputError (`pliant study` would have
+// terminated). Every key of an override path is checked to be UTF-8, and refused naming the override.
+TEST(SceneOverrides, AKeyThatIsNotUtf8IsRefusedNamingTheOverride) {
+  const std::string base = R"({"bodies": [{"mesh": {"box": {}}}]})";
+  for (const std::string o : {std::string("time_step.//coura\xef" "t=0.3"), std::string("//\xff=1"),
+                              std::string("bodies[0].//\xc3=\"x\""), std::string("//a\xe2\x82=1")}) {
+    try {
+      apply_scene_overrides(base, {o}, "o.json");
+      ADD_FAILURE() << o << ": no error";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find("o.json: override \"" + o + "\""), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("not valid UTF-8"), std::string::npos) << e.what();
+    }
+  }
+  // A UTF-8 comment key is kept.
+  const std::string out = apply_scene_overrides(base, {"time_step.//note=\"d\u00e9j\u00e0 vu\"", "//\xc3\xa9t\xc3\xa9=1"}, "o.json");
+  EXPECT_NE(out.find("\"//note\""), std::string::npos) << out;
+  EXPECT_NE(out.find("\"//\xc3\xa9t\xc3\xa9\""), std::string::npos) << out;
+}
+
 namespace {
 
 // A scene path that is a FIFO (its open waited for a writer), a link to /dev/zero (read until

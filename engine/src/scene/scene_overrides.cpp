@@ -62,6 +62,36 @@ std::string_view trim(std::string_view s) {
   return s;
 }
 
+// Whether `s` is well-formed UTF-8 (RFC 3629: no overlong forms, no surrogates, at most U+10FFFF),
+// as JSON text must be. A key of the path becomes a key of the document, and a document holding a
+// key that is not UTF-8 cannot be written out (nlohmann throws its type_error 316 from dump): an
+// override "time_step.//x\xef=1" once escaped apply_scene_overrides that way (found by fuzzing).
+bool valid_utf8(std::string_view s) {
+  std::size_t i = 0;
+  while (i < s.size()) {
+    const auto c = static_cast<unsigned char>(s[i]);
+    std::size_t n = 0;            // continuation bytes
+    unsigned char lo = 0x80, hi = 0xBF;  // range of the first continuation byte
+    if (c < 0x80) n = 0;
+    else if (c >= 0xC2 && c <= 0xDF) n = 1;
+    else if (c == 0xE0) n = 2, lo = 0xA0;
+    else if (c >= 0xE1 && c <= 0xEC) n = 2;
+    else if (c == 0xED) n = 2, hi = 0x9F;  // not the surrogates U+D800..DFFF
+    else if (c >= 0xEE && c <= 0xEF) n = 2;
+    else if (c == 0xF0) n = 3, lo = 0x90;
+    else if (c >= 0xF1 && c <= 0xF3) n = 3;
+    else if (c == 0xF4) n = 3, hi = 0x8F;  // at most U+10FFFF
+    else return false;
+    if (s.size() - i - 1 < n) return false;
+    for (std::size_t k = 1; k <= n; ++k) {
+      const auto b = static_cast<unsigned char>(s[i + k]);
+      if (b < (k == 1 ? lo : 0x80) || b > (k == 1 ? hi : 0xBF)) return false;
+    }
+    i += n + 1;
+  }
+  return true;
+}
+
 void apply_one(Json& doc, const std::string& text, const std::string& source) {
   auto fail = [&](const std::string& problem) {
     throw InputError(fmt::format("{}: override \"{}\": {}", source, text, problem));
@@ -72,6 +102,8 @@ void apply_one(Json& doc, const std::string& text, const std::string& source) {
   std::vector<Segment> segments;
   if (!split_path(path, segments))
     fail(fmt::format("malformed path \"{}\"; expected keys and indices like bodies[0].material.young", path));
+  for (const Segment& s : segments)
+    if (!s.is_index && !valid_utf8(s.key)) fail("the path is not valid UTF-8 (JSON keys must be)");
 
   const std::string_view raw = trim(std::string_view(text).substr(eq + 1));
   Json value = Json::parse(raw, nullptr, false);
