@@ -177,6 +177,101 @@ TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {
   EXPECT_EQ(w.level_info(0, 1).stepped_tets, 0u);
 }
 
+// The bar of SplitsWhereTheBodyStrainsAndMergesWhenItCalms (linear elasticity: its field scales with
+// the push), pushed `amplitude` m sideways; the splits by 0.15 s, nothing refined by distance.
+std::int64_t bar_splits(double amplitude, AdaptDef::Measure measure, double refine_above) {
+  World w(no_gravity());
+  BodyDef b = block(20);
+  b.model = ForceModel::linear;
+  b.mesh.max = {0.2, 0.02, 0.02};
+  b.mesh.cells = {20, 2, 2};
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-9, 1, 1};
+  b.fixed.push_back(clamp);
+  PrescribedMotionDef push;
+  push.region.min = {0.2 - 1e-9, -1, -1};
+  push.region.max = {1, 1, 1};
+  push.keyframes = {{0.0, {0, 0, 0}}, {0.1, {0, amplitude, 0}}, {0.2, {0, amplitude, 0}}};
+  b.prescribed.push_back(push);
+  AdaptDef& a = b.multiresolution.active.adapt;
+  a.measure = measure;
+  a.refine_above = refine_above;
+  a.coarsen_below = refine_above / 5;
+  a.refine_near = 0;
+  w.add_body(b);
+  while (w.time() < 0.15) w.step();
+  return w.adapt_stats(0).splits;
+}
+
+TEST(Adaptivity, RelativeThresholdsDecideAlikeForAPushTenTimesSmaller) {
+  // Relative (the default): thresholds are fractions of the body's peak strain, so the same shape
+  // of deformation at a tenth of the amplitude splits the same nodes. Absolute: a 2% strain jump
+  // is reached by the large push only.
+  const std::int64_t large = bar_splits(0.03, AdaptDef::Measure::relative, 0.5);
+  const std::int64_t small = bar_splits(0.003, AdaptDef::Measure::relative, 0.5);
+  std::printf("relative 0.5: %lld splits (3 cm push), %lld (3 mm)\n", static_cast<long long>(large), static_cast<long long>(small));
+  EXPECT_GT(large, 0);
+  // Alike, not equal: the peak is a Green-Lagrange strain, which the bar's rotation raises more at
+  // the larger push (measured 25 against 28 splits).
+  EXPECT_NEAR(double(small), double(large), 0.2 * double(large));
+  const std::int64_t large_abs = bar_splits(0.03, AdaptDef::Measure::absolute, 0.02);
+  const std::int64_t small_abs = bar_splits(0.003, AdaptDef::Measure::absolute, 0.02);
+  std::printf("absolute 0.02: %lld splits (3 cm push), %lld (3 mm)\n", static_cast<long long>(large_abs), static_cast<long long>(small_abs));
+  EXPECT_GT(large_abs, 0);
+  EXPECT_EQ(small_abs, 0);
+}
+
+// A 20 x 10 x 4 cm slab clamped at its base, strain thresholds out of reach: only distance refines.
+// Returns the fine tets stepped after 0.05 s.
+std::size_t fine_tets_near(bool motion, bool probe, bool probe_refines, double refine_near) {
+  World w(no_gravity());
+  BodyDef b = block(20);
+  b.mesh.max = {0.2, 0.1, 0.04};
+  b.mesh.cells = {10, 6, 2};
+  RegionDef base;
+  base.min = {-1, -1, -1};
+  base.max = {1, 1, 1e-9};
+  b.fixed.push_back(base);
+  if (motion) {  // the top of the slab's x = 0 end pushed 5 mm down
+    PrescribedMotionDef push;
+    push.region.min = {-1, -1, 0.04 - 1e-9};
+    push.region.max = {0.02 + 1e-9, 1, 1};
+    push.keyframes = {{0.0, {0, 0, 0}}, {0.05, {0, 0, -0.005}}};
+    b.prescribed.push_back(push);
+  }
+  AdaptDef& a = b.multiresolution.active.adapt;
+  a.refine_above = 1e9;
+  a.coarsen_below = 1e8;
+  a.refine_near = refine_near;
+  w.add_body(b);
+  if (probe) {
+    ProbeDef p;
+    p.name = "middle";
+    p.body = "block";
+    p.point = {0.15, 0.05, 0.03};
+    p.refine = probe_refines;
+    w.add_probe(p);
+  }
+  while (w.time() < 0.05) w.step();
+  return w.level_info(0, 1).stepped_tets;
+}
+
+TEST(Adaptivity, PrescribedMotionsAndRefiningProbesKeepTheirSurroundingsFine) {
+  const std::size_t all_fine = 10 * 6 * 2 * 6;
+  const std::size_t by_motion = fine_tets_near(true, false, false, -1);
+  const std::size_t by_probe = fine_tets_near(false, true, true, -1);
+  std::printf("fine tets stepped of %zu: %zu around the prescribed motion, %zu around the probe (auto reach)\n", all_fine,
+              by_motion, by_probe);
+  EXPECT_GT(by_motion, 0u);
+  EXPECT_LT(by_motion, all_fine / 2);
+  EXPECT_GT(by_probe, 0u);
+  EXPECT_LT(by_probe, all_fine / 2);
+  EXPECT_EQ(fine_tets_near(true, false, false, 0), 0u);    // refine_near 0: distance refines nothing
+  EXPECT_EQ(fine_tets_near(false, true, false, -1), 0u);   // a probe refines only when it asks
+  EXPECT_GT(fine_tets_near(true, false, false, 0.1), by_motion);  // a longer reach refines more
+}
+
 std::uint64_t adaptive_hash(int threads) {
   World w(no_gravity(threads));
   w.add_body(block());
@@ -205,6 +300,14 @@ TEST(Adaptivity, SceneKeysAndTheirErrors) {
   EXPECT_EQ(a.adapt.coarsen_below, 0.01);
   EXPECT_EQ(a.adapt.min_dwell, 0.1);
   EXPECT_EQ(a.adapt.check_every, 0.002);
+  EXPECT_EQ(a.adapt.measure, AdaptDef::Measure::relative);
+  EXPECT_EQ(a.adapt.refine_near, -1);  // "auto": one mean edge of each level
+  const SceneDef s2 = parse_scene(R"({"bodies": [{"name": "b", "mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"measure": "absolute", "refine_near": 0.01}}}], "probes": [{"body": "b", "point": [0.5, 0.5, 0.5], "refine": true}]})",
+                                  "t.json", ".");
+  EXPECT_EQ(s2.bodies[0].multiresolution.active.adapt.measure, AdaptDef::Measure::absolute);
+  EXPECT_EQ(s2.bodies[0].multiresolution.active.adapt.refine_near, 0.01);
+  EXPECT_TRUE(s2.probes[0].refine);
   auto error = [](const std::string& json) {
     try {
       parse_scene(json, "t.json", ".");
@@ -223,6 +326,14 @@ TEST(Adaptivity, SceneKeysAndTheirErrors) {
   EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
       "adapt": {"refine": 0.01}}}]})"),
               HasSubstr("bodies[0].multiresolution.adapt.refine"));
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"measure": "strain"}}}]})"),
+              HasSubstr("bodies[0].multiresolution.adapt.measure: expected \"relative\""));
+  EXPECT_THAT(error(R"({"bodies": [{"mesh": {"box": {}}, "multiresolution": {"levels": 2, "active": "adaptive",
+      "adapt": {"refine_near": "far"}}}]})"),
+              HasSubstr("bodies[0].multiresolution.adapt.refine_near"));
+  EXPECT_THAT(error(R"({"bodies": [{"name": "b", "mesh": {"box": {}}}], "probes": [{"body": "b", "point": [0, 0, 0], "refine": 1}]})"),
+              HasSubstr("probes[0].refine: expected true or false"));
   World w;
   BodyDef b = block();
   b.multiresolution.active.adapt.coarsen_below = 1;

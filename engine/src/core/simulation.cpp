@@ -313,16 +313,18 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     bool aligned = true;
     for (std::size_t l = 0; l < body.levels.size(); ++l) aligned &= due_[job_of_body_[b] + l].window_end;
     if (!aligned) continue;
-    // The tools touching the body, where they are now (body frame), for AdaptDef::refine_near.
-    std::vector<NearSegment> near;
-    if (body.adapt->def.refine_near > 0)
+    // What refines by distance (AdaptDef::refine_near), where it is now (body frame): the tools
+    // touching the body, the nodes of its prescribed motions (their bounding box), and the probes
+    // that ask for it.
+    std::vector<NearShape> near;
+    if (body.adapt->def.refine_near != 0) {
       for (const ToolState<T>& tool : tools) {
         bool touches = false;
         for (const LevelContact<T>& lc : tool.levels) touches |= lc.body == int(b);
         if (!touches) continue;
         Vec3d a, e;
         tool_axis(tool.def.shape, tool.pose_at(t + h), a, e);
-        NearSegment s;
+        NearShape s;
         for (int k = 0; k < 3; ++k) {
           s.a[std::size_t(k)] = a[std::size_t(k)] - body.origin[std::size_t(k)];
           s.b[std::size_t(k)] = e[std::size_t(k)] - body.origin[std::size_t(k)];
@@ -330,6 +332,32 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         s.radius = tool.def.shape.radius;
         near.push_back(s);
       }
+      for (const MotionState& ms : body.motions) {
+        NearShape s;
+        s.box = true;
+        s.a = {1e300, 1e300, 1e300};
+        s.b = {-1e300, -1e300, -1e300};
+        for (std::size_t l = 0; l < ms.nodes.size(); ++l)
+          for (std::int32_t v : ms.nodes[l])
+            for (int k = 0; k < 3; ++k) {
+              const double x = double(body.levels[l].x[k][std::size_t(v)]);
+              s.a[std::size_t(k)] = std::min(s.a[std::size_t(k)], x);
+              s.b[std::size_t(k)] = std::max(s.b[std::size_t(k)], x);
+            }
+        if (s.a[0] <= s.b[0]) near.push_back(s);
+      }
+      for (const ProbeState& p : probes) {
+        if (p.body != int(b) || !p.refine) continue;
+        const Level<T>& L = body.levels[std::size_t(p.level)];
+        NearShape s;
+        for (int c = 0; c < 4; ++c) {
+          const Vec3d x = node_now(body, L, std::size_t(L.tet[c][std::size_t(p.tet)]));
+          for (int k = 0; k < 3; ++k) s.a[std::size_t(k)] += p.weights[std::size_t(c)] * x[std::size_t(k)];
+        }
+        s.b = s.a;
+        near.push_back(s);
+      }
+    }
     if (!adapt_body(body, t + h, near)) continue;
     adapted = true;
     relocate_probes(int(b));

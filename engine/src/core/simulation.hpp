@@ -64,6 +64,7 @@ struct ProbeState {
   int body = 0, level = 0;
   std::int32_t tet = 0;
   std::array<double, 4> weights{};  // barycentric weights of the tet's corners
+  bool refine = false;              // ProbeDef::refine: an adaptive body stays fine around it
 };
 
 // The origin of a body frame for a mesh (world frame, m): the centre of its rest bounding box.

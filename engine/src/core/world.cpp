@@ -396,8 +396,9 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
                                        def.name, ad.refine_above, ad.coarsen_below));
         if (!(std::isfinite(ad.min_dwell) && ad.min_dwell >= 0) || !(std::isfinite(ad.check_every) && ad.check_every >= 0))
           throw InputError(fmt::format("body '{}': multiresolution.adapt.min_dwell and check_every must be finite and >= 0 (s)", def.name));
-        if (!(std::isfinite(ad.refine_near) && ad.refine_near >= 0))
-          throw InputError(fmt::format("body '{}': multiresolution.adapt.refine_near must be a finite distance >= 0 (m), got {}", def.name, ad.refine_near));
+        if (!(std::isfinite(ad.refine_near) && (ad.refine_near >= 0 || ad.refine_near == -1)))
+          throw InputError(fmt::format("body '{}': multiresolution.adapt.refine_near must be a finite distance >= 0 (m), "
+                                       "or -1 (\"auto\": one mean edge of each level), got {}", def.name, ad.refine_near));
         auto a = std::make_shared<detail::AdaptiveState>();
         a->hierarchy = h;
         a->activation = std::make_unique<detail::ActivationState>(*h, detail::node_targets(*h, def.multiresolution.active));
@@ -719,6 +720,7 @@ int World::add_probe(const ProbeDef& def) {
     detail::ProbeState p;
     p.name = def.name;
     p.body = b;
+    p.refine = def.refine;
     double best = -1e300;
     for (int l = int(body.levels.size()) - 1; l >= 0 && best < kInside; --l) {
       const auto& L = body.levels[std::size_t(l)];

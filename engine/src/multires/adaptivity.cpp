@@ -77,9 +77,9 @@ std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const 
 }  // namespace
 
 template <class T>
-bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near) {
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) {
   AdaptiveState& st = *body.adapt;
-  if (t + 1e-12 < st.next_check) return false;
+  if (st.forced_target < 0 && t + 1e-12 < st.next_check) return false;  // World::force_level acts at once
   st.next_check = t + st.def.check_every;
   ++st.checks;
   const Hierarchy& h = *st.hierarchy;
@@ -95,6 +95,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
   field_now(body, x, v);
   std::vector<std::vector<double>> measure(static_cast<std::size_t>(levels));
   std::vector<std::array<double, 9>> F;
+  double peak = 0;  // the body's largest Green-Lagrange strain |(F^T F - I) / 2| over its stepped tets
   for (int l = 0; l < levels; ++l) {
     const Level<T>& L = body.levels[std::size_t(l)];
     auto& m = measure[std::size_t(l)];
@@ -103,7 +104,17 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
     const std::vector<std::uint8_t>& on = as.stepped_mask(l);
     F.assign(L.tet_count, {});
     for (const Range& run : L.stepped_runs)
-      for (std::size_t e = run.begin; e < run.end; ++e) F[e] = deformation_gradient(L, e, xl);
+      for (std::size_t e = run.begin; e < run.end; ++e) {
+        F[e] = deformation_gradient(L, e, xl);
+        double e2 = 0;
+        for (int i = 0; i < 3; ++i)
+          for (int j = 0; j < 3; ++j) {
+            double c = i == j ? -1.0 : 0.0;  // (F^T F - I)_ij
+            for (int k = 0; k < 3; ++k) c += F[e][std::size_t(3 * k + i)] * F[e][std::size_t(3 * k + j)];
+            e2 += 0.25 * c * c;
+          }
+        peak = std::max(peak, std::sqrt(e2));
+      }
     const auto& nb = st.neighbours[std::size_t(l)];
     for (const Range& run : L.stepped_runs)
       for (std::size_t e = run.begin; e < run.end; ++e) {
@@ -120,6 +131,13 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
         }
       }
   }
+
+  // Measure::relative: both measures over the body's peak strain (at least kStrainFloor), so that
+  // the thresholds are fractions of how much the body deforms now.
+  st.peak_strain = peak;
+  const double unit = st.def.measure == AdaptDef::Measure::relative ? std::max(peak, AdaptDef::kStrainFloor) : 1.0;
+  const double split_above = st.def.refine_above * st.scale * unit;
+  const double merge_below = st.def.coarsen_below * st.scale * unit;
 
   // The merge measure: how far the finer field is from what the coarser level would give there.
   // For a child c (a finer node in a split node's Voronoi zone), its displacement against the
@@ -158,15 +176,25 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
   std::vector<std::vector<std::array<double, 7>>> restricted_now(static_cast<std::size_t>(levels));
   for (int l = 0; l + 1 < levels; ++l) restricted_now[std::size_t(l)] = restrict_field(body, h, l, x, v);
 
-  // Near a tool (AdaptDef::refine_near): a node within that distance of a segment's surface.
+  // Near a tool, a prescribed motion or a refining probe (AdaptDef::refine_near; < 0: one mean edge
+  // of the node's own level): a node within that distance of a shape's surface.
   auto is_near = [&](int l, std::size_t i) {
-    if (near.empty() || !(st.def.refine_near > 0)) return false;
+    if (near.empty() || st.def.refine_near == 0) return false;
+    const double reach = st.def.refine_near >= 0 ? st.def.refine_near : st.edge[std::size_t(l)];
     const P3 p{x[3 * std::size_t(l)][i], x[3 * std::size_t(l) + 1][i], x[3 * std::size_t(l) + 2][i]};
-    for (const NearSegment& s : near) {
-      double u = 0, unused = 0;
-      closest_segment_segment(s.a, s.b, p, p, u, unused);
-      const P3 c = add(s.a, mul(sub(s.b, s.a), u));
-      if (std::sqrt(norm2(sub(p, c))) <= s.radius + st.def.refine_near) return true;
+    for (const NearShape& s : near) {
+      double d2 = 0;
+      if (s.box) {
+        for (std::size_t k = 0; k < 3; ++k) {
+          const double d = std::max({s.a[k] - p[k], 0.0, p[k] - s.b[k]});
+          d2 += d * d;
+        }
+      } else {
+        double u = 0, unused = 0;
+        closest_segment_segment(s.a, s.b, p, p, u, unused);
+        d2 = norm2(sub(p, add(s.a, mul(sub(s.b, s.a), u))));
+      }
+      if (std::sqrt(d2) <= s.radius + reach) return true;
     }
     return false;
   };
@@ -196,7 +224,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
       }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
         if (l + 1 <= st.cap && L.state[std::size_t(i)] == kNodeFree &&
-            (measure[std::size_t(l)][std::size_t(i)] > st.def.refine_above * st.scale || is_near(l, std::size_t(i)))) {
+            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
@@ -209,7 +237,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
           quiet = as.target(l + 1, lk.children[std::size_t(c)]) <= l + 1;  // no child split further
         for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
           quiet = !is_near(l + 1, std::size_t(lk.children[std::size_t(c)]));  // a tool keeps its region fine
-        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < st.def.coarsen_below * st.scale;
+        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < merge_below;
         if (!quiet) {
           calm[std::size_t(i)] = -1;
         } else if (calm[std::size_t(i)] < 0) {
@@ -377,7 +405,7 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
   return nb;
 }
 
-template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearSegment>&);
-template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearSegment>&);
+template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&);
+template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&);
 
 }  // namespace pliant::detail

@@ -32,6 +32,7 @@ struct AdaptiveState {
   std::int64_t splits = 0, merges = 0, checks = 0, changes = 0;
   double scale = 1;                            // both thresholds times this (the real-time controller raises it to coarsen)
   int cap = 1 << 20;                           // no node is split beyond this level; split nodes above it merge at once
+  double peak_strain = 0;                      // the body's largest |E| at the last decision (diagnostics)
   int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
   double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
 };
@@ -50,13 +51,15 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh);
 
 // One decision of an adaptive body at time t (s), at a tick where every level's window ends.
 // Returns true if the activation changed (the caller re-prepares its jobs).
-// `near`: segments (a, b in the body frame, and a radius, m) that nodes within AdaptDef::refine_near of
-// are split and kept split (the tools touching the body).
-struct NearSegment {
+// `near`: what refines by distance (AdaptDef::refine_near), in the body frame: segments a-b with a
+// radius (m; the tools touching the body, a probe as a point) or boxes a..b (a prescribed
+// motion's nodes); nodes within refine_near of their surface are split and kept split.
+struct NearShape {
   std::array<double, 3> a{}, b{};
   double radius = 0;
+  bool box = false;
 };
 template <class T>
-bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near = {});
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near = {});
 
 }  // namespace pliant::detail

@@ -21,7 +21,7 @@ inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep",
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution", "skin"};
 inline constexpr std::string_view kMultiresKeys[] = {"levels", "ratio", "faces", "calibrate", "active", "adapt"};
-inline constexpr std::string_view kAdaptKeys[] = {"refine_above", "coarsen_below", "min_dwell", "check_every", "refine_near"};
+inline constexpr std::string_view kAdaptKeys[] = {"measure", "refine_above", "coarsen_below", "min_dwell", "check_every", "refine_near"};
 inline constexpr std::string_view kActiveRegionKeys[] = {"level", "region"};
 inline constexpr std::string_view kMeshKeys[] = {"box",       "file",  "surface",  "implicit",
                                                  "cell_size", "scale", "translate", "repair"};
@@ -35,7 +35,7 @@ inline constexpr std::string_view kSphereKeys[] = {"center", "radius"};
 inline constexpr std::string_view kPrescribedKeys[] = {"region", "keyframes"};
 inline constexpr std::string_view kKeyframeKeys[] = {"time", "offset"};
 inline constexpr std::string_view kLoadKeys[] = {"region", "force"};
-inline constexpr std::string_view kProbeKeys[] = {"name", "body", "point"};
+inline constexpr std::string_view kProbeKeys[] = {"name", "body", "point", "refine"};
 inline constexpr std::string_view kOutputKeys[] = {"vtu_every", "probe_every", "sheet"};
 inline constexpr std::string_view kCameraKeys[] = {"position", "target", "up", "fov_deg"};
 inline constexpr std::string_view kObstacleKeys[] = {"plane", "friction"};

@@ -456,7 +456,20 @@ MultiresolutionDef Reader::multiresolution(const Json& j, const std::string& pat
     optional(v, p, "coarsen_below", [&](const auto& x, const auto& q) { a.coarsen_below = non_negative(x, q); });
     optional(v, p, "min_dwell", [&](const auto& x, const auto& q) { a.min_dwell = non_negative(x, q); });
     optional(v, p, "check_every", [&](const auto& x, const auto& q) { a.check_every = non_negative(x, q); });
-    optional(v, p, "refine_near", [&](const auto& x, const auto& q) { a.refine_near = non_negative(x, q); });
+    optional(v, p, "measure", [&](const auto& x, const auto& q) {
+      if (x.is_string() && x.template get<std::string>() == "relative")
+        a.measure = AdaptDef::Measure::relative;
+      else if (x.is_string() && x.template get<std::string>() == "absolute")
+        a.measure = AdaptDef::Measure::absolute;
+      else
+        fail(q, "expected \"relative\" (thresholds as fractions of the body's peak strain) or \"absolute\", got " + describe(x));
+    });
+    optional(v, p, "refine_near", [&](const auto& x, const auto& q) {
+      if (x.is_string() && x.template get<std::string>() == "auto")
+        a.refine_near = -1;
+      else
+        a.refine_near = non_negative(x, q);
+    });
     if (!(a.coarsen_below < a.refine_above))
       fail(field(p, "coarsen_below"),
            fmt::format("must be below refine_above ({} >= {}): a node would split and merge at once", a.coarsen_below, a.refine_above));
@@ -723,6 +736,7 @@ ProbeDef Reader::probe(const Json& j, const std::string& path, std::size_t index
   optional(j, path, "name", [&](const auto& v, const auto& q) { p.name = name(v, q); });
   p.body = name(required(j, path, "body"), field(path, "body"));
   p.point = vec3(required(j, path, "point"), field(path, "point"));
+  optional(j, path, "refine", [&](const auto& v, const auto& q) { p.refine = boolean(v, q); });
   return p;
 }
 
