@@ -180,6 +180,11 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   // is the plan's estimate.
   const bool terminal = isatty(STDERR_FILENO);
   bool progress_shown = false;
+  opt.on_warning = [&](const std::string& w) {  // printed even with --quiet, as every warning
+    if (progress_shown) fmt::print(stderr, "\n");
+    fmt::print(stderr, "pliant: warning: {}\n", w);
+    progress_shown = false;
+  };
   if (!quiet) {
     opt.progress_every = terminal ? 0.2 : progress_every;
     opt.on_progress = [&](const RunProgress& p) {

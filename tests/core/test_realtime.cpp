@@ -2,6 +2,7 @@
 // clock, late steps are counted and the lag measured, and the physics is untouched. The runs use
 // a simulated wall clock (each step "costs" a chosen wall time), so that the figures are exact
 // and no test depends on how busy the machine is.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -127,6 +128,44 @@ TEST(RealTime, TheControllerCoarsensAnAdaptiveBodyToKeepTheClock) {
   EXPECT_GT(adaptive.controller_coarsened, 0);
   EXPECT_GT(adaptive.controller_max_scale, 1.0);
   EXPECT_LT(adaptive.lag_max_s, fine.lag_max_s / 4);
+}
+
+TEST(RealTime, ASceneTooSlowEvenAtItsCoarsestLevelSaysSoDuringTheRun) {
+  // The beam's coarse level alone costs 1/4 of real time on the costed clock of costed_run; here
+  // every tet costs 8x more, so even at level 0 a simulated second costs 2 s: once the controller
+  // has nothing left to coarsen it warns, once, with the numbers.
+  const SceneDef scene = sagging_beam(true);
+  RunOptions o;
+  o.write_files = false;
+  o.realtime = true;
+  World w = make_world(scene, o);
+  const double per_tet = 16.0 * w.dt() / double(w.tet_count(0, 1));
+  double slept = 0;
+  o.wall_clock = [&] { return w.tick_stats().tet_updates() * per_tet + slept; };
+  o.sleep_until = [&](double t) { slept += std::max(0.0, t - (w.tick_stats().tet_updates() * per_tet + slept)); };
+  std::vector<std::string> warnings;
+  double warned_at = -1;
+  o.on_warning = [&](const std::string& text) {
+    warnings.push_back(text);
+    warned_at = w.time();
+  };
+  const RunSummary s = run_world(scene, w, o);
+  ASSERT_EQ(warnings.size(), 1u);
+  std::printf("warned at t = %.3g s: %s\n", warned_at, warnings[0].c_str());
+  EXPECT_THAT(warnings[0], ::testing::HasSubstr("real time cannot be kept even at the coarsest level"));
+  // The coarse level alone costs 16 x 30 / 240 = 2 s per simulated second on this clock; the window
+  // that triggers the warning still holds the last merges' work (measured 2.42 s).
+  const auto at = warnings[0].find("a simulated second costs ");
+  ASSERT_NE(at, std::string::npos);
+  const double cost = std::stod(warnings[0].substr(at + 25));
+  EXPECT_GE(cost, 2.0);
+  EXPECT_LT(cost, 3.0);
+  EXPECT_LT(warned_at, 0.15);  // within a few control windows of 20 ms (measured below), not at the end
+  EXPECT_EQ(s.notes.size(), 1u);
+  // The same scene on the cheaper clock keeps time at its coarsest: no warning.
+  warnings.clear();
+  const RunSummary ok = costed_run(true);
+  EXPECT_TRUE(ok.notes.empty());
 }
 
 TEST(RealTime, AdvanceToStepsUpToTheHostsClock) {

@@ -54,6 +54,10 @@ struct RunOptions {
   // pictures or custom records. It reads the world and must not change it.
   double frame_every = 0;                  // s
   std::function<void(const World&)> on_frame;
+  // Called during the run, once, when something the caller should know at once happened (a
+  // real-time run whose adaptive bodies are at their coarsest and still cost more than the clock
+  // allows); the same text is kept in RunSummary::notes.
+  std::function<void(const std::string&)> on_warning;
 };
 
 struct RunSummary {

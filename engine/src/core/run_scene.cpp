@@ -348,7 +348,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   int finest = 0;
   for (BodyId b : adaptive_bodies) finest = std::max(finest, world.level_count(b) - 1);
   if (!adaptive_bodies.empty()) cap = finest;
-  bool estimated = false;
+  bool estimated = false, coarsest_warned = false;
   double next_progress = options.progress_every;
   try {
     for (std::int64_t i = 0; i < total_steps; ++i) {
@@ -375,6 +375,18 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
           if (load > kBusy || behind > 0.5 * kControlWindow) {
             if (scale < kMaxScale) next = std::min(scale * kFactor, kMaxScale);
             else if (cap > 0) next_cap = cap - 1;
+            else if (load > 1 && !coarsest_warned) {
+              // Nothing left to coarsen: the scene cannot keep the clock even at its coarsest.
+              coarsest_warned = true;
+              const std::string w = fmt::format(
+                  "real time cannot be kept even at the coarsest level: with every adaptive body on its level 0 and its "
+                  "thresholds x{:.0f}, a simulated second costs {:.3g} s of wall time on {} thread(s) ({:.0f} steps of {:.3g} s, "
+                  "{:.3g} us each); simulated time falls behind the clock from t = {:.3g} s",
+                  kMaxScale, load, world.threads(), window / world.dt(), world.dt(), 1e6 * window_busy / (window / world.dt()),
+                  world.time());
+              s.notes.push_back(w);
+              if (options.on_warning) options.on_warning(w);
+            }
           } else if (load < kIdle && behind <= 0) {
             if (cap < finest) next_cap = cap + 1;
             else if (scale > 1) next = std::max(scale / kFactor, 1.0);
