@@ -99,9 +99,44 @@ TEST(Adaptivity, ForcedSplitsAndMergesConserveMassAndMomentumAndPumpNoEnergy) {
               worst_mass, worst_momentum, e0, w.energies().total(), max_energy);
   EXPECT_EQ(a.changes, 200);
   EXPECT_LT(worst_mass, 1e-13);      // 1.9e-14 measured (the issue asks for exact)
-  EXPECT_LT(worst_momentum, 1e-13);  // 5.2e-15 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_momentum, 1e-13);  // 8.7e-15 measured (the issue asks for 1e-9)
   EXPECT_LE(max_energy, 1.01 * e0);  // the issue's bound; measured: never above the start. The transfers
                                      // dissipate: the vibration's 0.010 J is gone after 200 changes
+}
+
+TEST(Adaptivity, AMergeCarriesATurnedBodyOverWithoutStrainingIt) {
+  // The block turned a quarter turn about z, at rest (corotational: no force, nothing moves), split
+  // all and merged back: the coarse nodes must land where the turn puts them. A merge that took the
+  // mass-weighted average of the finer displacements around a node put every node on the block's
+  // surface (all of the coarse level's) about h/4 inside, i.e. 7 mm off here: 0.25 J of elastic
+  // energy from nothing (and, in a pushed beam, 3.5x its energy at the first merge).
+  World w(no_gravity());
+  BodyDef b = block();
+  b.multiresolution.active.adapt.refine_above = 10;
+  b.multiresolution.active.adapt.coarsen_below = 0;
+  w.add_body(b);
+  auto turned = [](const Level<double>& L, std::size_t n, int k) {  // (x, y, z) -> (-y, x, z)
+    return k == 0 ? -L.X[1][n] : k == 1 ? L.X[0][n] : L.X[2][n];
+  };
+  for (int l = 0; l < w.level_count(0); ++l) {
+    Level<double>& L = w.level<double>(0, l);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int k = 0; k < 3; ++k) L.x[k][n] = turned(L, n, k);
+  }
+  w.force_level(0, 1);
+  w.step();
+  ASSERT_EQ(w.level_info(0, 0).stepped_tets, 0u);
+  w.force_level(0, 0);
+  w.step();
+  ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+  const Level<double>& C = w.level<double>(0, 0);
+  double worst = 0;
+  for (std::size_t n = 0; n < C.node_count; ++n)
+    for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(C.x[k][n] - turned(C, n, k)));
+  std::printf("after the merge: coarse nodes within %.3g m of the turned block, elastic energy %.3g J\n", worst,
+              w.energies().elastic);
+  EXPECT_LT(worst, 1e-16);                // measured 1.4e-17 m
+  EXPECT_LT(w.energies().elastic, 1e-25);  // measured 2.6e-30 J
 }
 
 TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
