@@ -256,6 +256,15 @@ void trade() {
                    c.near, pct(2 * e_fine), best + 1, vs[std::size_t(best)].label,
                    fine.summary.tet_updates / traces[std::size_t(best)].summary.tet_updates,
                    fine.summary.tet_updates / traces[std::size_t(best)].summary.tet_updates >= 10 ? "reached" : "not reached");
+      // A goal that a coarser uniform level meets by itself says more about the finest level's own
+      // error than about adaptivity.
+      for (std::size_t i = 1; i < vs.size(); ++i)
+        if (vs[i].label.rfind("uniform", 0) == 0 && error(traces[i], *twice, true) <= 2 * e_fine &&
+            fine.summary.tet_updates >= 10 * traces[i].summary.tet_updates)
+          fmt::print("So does {} without adaptivity (#{}: {:.1f}x fewer tet updates, {} against the mesh twice as fine): "
+                     "the finest level's own error ({}) makes the band wide.\n\n",
+                     vs[i].label, i + 1, fine.summary.tet_updates / traces[i].summary.tet_updates,
+                     pct(error(traces[i], *twice, true)), pct(e_fine));
     }
   }
 }
