@@ -75,7 +75,9 @@ Command add_study_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--threads", o->threads, "Worker threads per run (0: all cores); runs go one after the other")
       ->capture_default_str();
-  sub->add_option("--cost", o->cost, "Cost of the Pareto front: wall (s per simulated s) or tet-steps")
+  sub->add_option("--cost", o->cost,
+                  "Cost of the Pareto front: wall (s per simulated s), tet-steps (tets x steps) or tet-updates "
+                  "(tets computed: what a multiresolution body steps)")
       ->capture_default_str();
   sub->add_flag("--quiet,-q", o->quiet, "No progress lines");
   sub->add_option("--jobs", o->jobs,
@@ -114,9 +116,7 @@ Command add_study_command(CLI::App& app) {
             so.out_dir = o->out;
             if (o->threads < 0) throw InputError(fmt::format("--threads must be >= 0, got {}", o->threads));
             so.threads = o->threads;
-            if (o->cost == "wall") so.cost = study::CostKind::wall;
-            else if (o->cost == "tet-steps") so.cost = study::CostKind::tet_steps;
-            else throw InputError(fmt::format("--cost must be wall or tet-steps, got '{}'", o->cost));
+            so.cost = study::parse_cost(o->cost);
             if (!o->quiet) so.progress = print_line;
             if (sub->count("--parallel") && o->parallel < 1)
               throw InputError(fmt::format("--parallel must be >= 1, got {}", o->parallel));

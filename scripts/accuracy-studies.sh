@@ -101,7 +101,7 @@ each other count as equal, so that a difference in the 6th digit does not make a
 
 ```
 pliant study SCENE --sweep 'PATH=V1|V2|...' [--sweep ...] [--reference VALUE|finest|FILE]
-                   [--measure JSON] [--out DIR] [--threads N] [--cost wall|tet-steps] [--quiet]
+                   [--measure JSON] [--out DIR] [--threads N] [--cost wall|tet-steps|tet-updates] [--quiet]
                    [--jobs FILE | --parallel N]
 pliant study --out DIR --run K          # one run of a job list (what each line of FILE is)
 pliant study --collect DIR              # study.csv, study.md and the plots from DIR's run folders
@@ -115,7 +115,8 @@ pliant study --collect DIR              # study.csv, study.md and the plots from
   fastest. Every scene of the grid is edited, parsed and checked before the first run; a malformed
   sweep, an unknown field or a bad value is an error (exit 2) that names the sweep or the setting.
 - The reference: by default `SCENE.reference.json` beside the scene (below). `--reference finest`
-  takes the measured value of the run of most tet-steps (the first of equals) as the reference of
+  takes the measured value of the run of most tet-steps (of equals, the one of most tet updates, then
+  the first) as the reference of
   the others; that run is marked `reference_run` and left out of the front. `--reference VALUE`
   sets the reference of a single quantity, `--reference FILE` reads another reference file.
   `--measure JSON` replaces the reference file's quantities by one measure (then give
@@ -127,7 +128,9 @@ pliant study --collect DIR              # study.csv, study.md and the plots from
   `invalid`), `run_model`, `run_precision`, `run_threads` (what the run used), `nodes`, `tets`,
   `dt`, `steps`, `substeps`,
   `simulated_time`, `setup_s` (building the world), `wall_s` (stepping only, measurements excluded),
-  `repeats`, `wall_per_sim_s`, `tet_steps`, then per quantity its value `NAME_UNIT` and reference
+  `repeats`, `wall_per_sim_s`, `tet_steps` (`tets` × `steps`; `tets` counts each body's mesh, a
+  multiresolution body's finest level), `tet_updates` (the tets actually computed: every level's stepped
+  tets at their own periods, what an adaptive or split body costs), then per quantity its value `NAME_UNIT` and reference
   `NAME_reference_UNIT` (e.g. `bar_speed_m_per_s`, `tip_z_m`; `NAME` alone when it has no unit) and
   `NAME_error` (relative: value/reference − 1; value − reference when the reference is 0), `error`
   (the largest |error| over the quantities: the accuracy of the front), `pareto` (1 on the front),
@@ -135,7 +138,7 @@ pliant study --collect DIR              # study.csv, study.md and the plots from
 - Plots (PNG drawn in software, with libpng only: no display needed; 800 × 600 pixels per
   panel), their paths printed with the tables':
   - `DIR/pareto.png`: the cost of each run (x: wall seconds per simulated second, or tet-steps
-    with `--cost tet-steps`) against its error (y: the largest |relative error| over the
+    with `--cost tet-steps`, or tet updates with `--cost tet-updates`) against its error (y: the largest |relative error| over the
     quantities, in %). Runs off the front are grey dots; the front is a red line, cheapest
     first, each point labelled with its run number (`#N`, the row of `study.csv` and of the
     tables). Runs without an error (diverged, the reference run) cannot be drawn: the title

@@ -47,7 +47,7 @@ double error_percent(const RunRecord& r, double error) {
 }
 
 double cost_of(const RunRecord& r, study::CostKind k) {
-  return k == study::CostKind::wall ? r.wall_per_sim() : r.tet_steps();
+  return k == study::CostKind::wall ? r.wall_per_sim() : k == study::CostKind::tet_steps ? r.tet_steps() : r.tet_updates;
 }
 
 std::optional<double> as_number(const std::string& json) {
@@ -105,8 +105,9 @@ std::string reference_note(const StudyResult& s) {
 Plot study_pareto_plot(const StudyResult& s) {
   const std::size_t nq = s.quantities.size();
   Plot p;
-  p.x = s.cost == study::CostKind::wall ? PlotAxis{"cost: wall time per simulated time", "s/s"}
-                                        : PlotAxis{"cost: tet-steps (tets × steps)", ""};
+  p.x = s.cost == study::CostKind::wall        ? PlotAxis{"cost: wall time per simulated time", "s/s"}
+        : s.cost == study::CostKind::tet_steps ? PlotAxis{"cost: tet-steps (tets × steps)", ""}
+                                               : PlotAxis{"cost: tet updates (tets computed, every level)", ""};
   p.y = PlotAxis{nq == 1 ? "|relative error| of " + s.quantities[0].name : "largest |relative error|", "%"};
 
   std::vector<double> cost, error;

@@ -131,8 +131,11 @@ Spec load_spec(const fs::path& dir) {
     if (j.at("threads").is_null()) o.threads.reset();
     else o.threads = j.at("threads").get<int>();
     const std::string cost = j.at("cost").get<std::string>();
-    if (cost != "wall" && cost != "tet-steps") throw InputError(fmt::format("{}: cost '{}'", source, cost));
-    o.cost = cost == "wall" ? CostKind::wall : CostKind::tet_steps;
+    try {
+      o.cost = parse_cost(cost);
+    } catch (const InputError&) {
+      throw InputError(fmt::format("{}: cost '{}'", source, cost));
+    }
     o.min_time = j.at("min_time").get<double>();
     o.out_dir = dir;
     s.runs = j.at("runs").get<std::size_t>();
@@ -158,6 +161,7 @@ std::string run_record_json(const RunRecord& r) {
   j["nodes"] = r.nodes;
   j["tets"] = r.tets;
   j["steps"] = r.steps;
+  j["tet_updates"] = number(r.tet_updates);
   j["substeps"] = r.substeps;
   j["dt"] = number(r.dt);
   j["simulated_time"] = number(r.simulated_time);
@@ -186,6 +190,7 @@ RunRecord parse_run_record(const std::string& text, const std::string& source) {
     r.tets = j.at("tets").get<std::size_t>();
     r.steps = j.at("steps").get<std::int64_t>();
     r.substeps = j.at("substeps").get<int>();
+    r.tet_updates = number_of(j.at("tet_updates"), source, "tet_updates");
     r.dt = number_of(j.at("dt"), source, "dt");
     r.simulated_time = number_of(j.at("simulated_time"), source, "simulated_time");
     r.setup_s = number_of(j.at("setup_s"), source, "setup_s");
@@ -218,7 +223,7 @@ std::vector<std::string> write_study_jobs(const StudyOptions& given, const fs::p
   j["reference"] = o.reference;
   j["measure"] = o.measure;
   j["threads"] = o.threads ? Json(*o.threads) : Json();
-  j["cost"] = o.cost == CostKind::wall ? "wall" : "tet-steps";
+  j["cost"] = to_string(o.cost);
   j["min_time"] = o.min_time;
   j["runs"] = prepared.points.size();
   j["fingerprint"] = fingerprint(o);

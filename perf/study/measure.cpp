@@ -292,8 +292,9 @@ RunRecord run_measured(const SceneDef& scene, const std::vector<QuantityDef>& qu
   r.dt = w.dt();
   r.substeps = w.substeps();
   for (std::size_t b = 0; b < w.body_count(); ++b) {
-    r.nodes += w.node_count(BodyId(b));
-    r.tets += w.tet_count(BodyId(b));
+    const int finest = w.level_count(BodyId(b)) - 1;  // the body's mesh (a multiresolution body's finest level)
+    r.nodes += w.node_count(BodyId(b), finest);
+    r.tets += w.tet_count(BodyId(b), finest);
     const std::string m = to_string(w.body_def(BodyId(b)).model);
     if (r.model.find(m) == std::string::npos) r.model += (r.model.empty() ? "" : "+") + m;
   }
@@ -320,6 +321,7 @@ RunRecord run_measured(const SceneDef& scene, const std::vector<QuantityDef>& qu
   }
   r.wall_s = std::chrono::duration<double>(stepping).count();
   r.steps = w.steps();
+  r.tet_updates = w.tick_stats().tet_updates();
   r.simulated_time = w.time();
   if (r.status == "ok")
     for (std::size_t q = 0; q < observers.size(); ++q) r.values[q] = observers[q].finish(w);

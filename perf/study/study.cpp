@@ -58,7 +58,9 @@ std::string unquote(const std::string& v) {
   return v.size() >= 2 && v.front() == '"' && v.back() == '"' ? v.substr(1, v.size() - 2) : v;
 }
 
-double cost_of(const RunRecord& r, CostKind k) { return k == CostKind::wall ? r.wall_per_sim() : r.tet_steps(); }
+double cost_of(const RunRecord& r, CostKind k) {
+  return k == CostKind::wall ? r.wall_per_sim() : k == CostKind::tet_steps ? r.tet_steps() : r.tet_updates;
+}
 
 // Markdown numbers: 4 significant digits, errors in percent.
 std::string md_value(double v) { return std::isnan(v) ? "—" : fmt::format("{:.5g}", v); }
@@ -95,6 +97,16 @@ std::string with_unit(const std::string& name, const std::string& unit) {
 }
 
 }  // namespace
+
+std::string to_string(CostKind k) {
+  return k == CostKind::wall ? "wall" : k == CostKind::tet_steps ? "tet-steps" : "tet-updates";
+}
+
+CostKind parse_cost(const std::string& text) {
+  for (CostKind k : {CostKind::wall, CostKind::tet_steps, CostKind::tet_updates})
+    if (text == to_string(k)) return k;
+  throw InputError(fmt::format("--cost must be wall, tet-steps or tet-updates, got '{}'", text));
+}
 
 QuantityDef quantity_for_measure(const MeasureDef& m) {
   static const char* const kAxis[] = {"x", "y", "z", "displacement"};
@@ -149,11 +161,15 @@ void finish_study(StudyResult& s) {
   const std::size_t nq = s.quantities.size();
   s.finest = -1;
   if (s.reference_kind == "finest") {
-    // The run of most tet-steps among those that measured every quantity; ties: the first.
+    // The run of most tet-steps among those that measured every quantity; ties (the levels of one
+    // multiresolution body share its finest mesh) go to the most tet updates, then to the first.
+    auto finer = [](const RunRecord& a, const RunRecord& b) {
+      return a.tet_steps() > b.tet_steps() || (a.tet_steps() == b.tet_steps() && a.tet_updates > b.tet_updates);
+    };
     for (std::size_t i = 0; i < s.runs.size(); ++i) {
       const RunRecord& r = s.runs[i];
       const bool complete = r.status == "ok" && std::none_of(r.values.begin(), r.values.end(), [](double v) { return std::isnan(v); });
-      if (complete && (s.finest < 0 || r.tet_steps() > s.runs[std::size_t(s.finest)].tet_steps())) s.finest = int(i);
+      if (complete && (s.finest < 0 || finer(r, s.runs[std::size_t(s.finest)]))) s.finest = int(i);
     }
     for (auto& r : s.runs) {
       r.references.assign(nq, kNaN);
@@ -348,7 +364,7 @@ StudyResult run_study(const StudyOptions& o) {
 std::string study_csv(const StudyResult& s) {
   std::string out = "run";
   for (const Sweep& sw : s.sweeps) out += "," + csv_field(sw.path);
-  out += ",status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps";
+  out += ",status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps,tet_updates";
   // Per quantity: its value and reference named with their unit (tip_z_m, tip_z_reference_m),
   // and the relative error (no unit).
   for (const QuantityDef& q : s.quantities)
@@ -358,9 +374,9 @@ std::string study_csv(const StudyResult& s) {
     const RunRecord& r = s.runs[i];
     out += std::to_string(i + 1);
     for (const std::string& v : r.settings) out += "," + csv_field(unquote(v));
-    out += fmt::format(",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", r.status, r.model, r.precision, r.threads,
+    out += fmt::format(",{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}", r.status, r.model, r.precision, r.threads,
                        r.nodes, r.tets, num(r.dt), r.steps, r.substeps, num(r.simulated_time), num(r.setup_s),
-                       num(r.wall_s), r.repeats, num(r.wall_per_sim()), num(r.tet_steps()));
+                       num(r.wall_s), r.repeats, num(r.wall_per_sim()), num(r.tet_steps()), num(r.tet_updates));
     for (std::size_t q = 0; q < s.quantities.size(); ++q)
       out += fmt::format(",{},{},{}", num(q < r.values.size() ? r.values[q] : kNaN),
                          num(q < r.references.size() ? r.references[q] : kNaN),
@@ -372,7 +388,9 @@ std::string study_csv(const StudyResult& s) {
 
 std::string study_markdown(const StudyResult& s) {
   std::string md;
-  const char* cost_name = s.cost == CostKind::wall ? "wall s per simulated s" : "tet-steps";
+  const char* cost_name = s.cost == CostKind::wall        ? "wall s per simulated s"
+                          : s.cost == CostKind::tet_steps ? "tet-steps"
+                                                          : "tet updates";
   md += fmt::format("Scene `{}`{}. {} run(s) in {:.0f} s.\n\n", s.scene,
                     s.description.empty() ? "" : ": " + s.description, s.runs.size(), s.wall_total_s);
   // Quantities, and their reference when it is the same in every run.

@@ -148,7 +148,7 @@ check study_no_convergence 0 "no convergence\.png: no sweep changes the mesh" --
   --sweep 'bodies[0].model="linear"|"springs"' --out "$work/study2"
 if [ -s "$work/study2/pareto.png" ] && [ ! -e "$work/study2/convergence.png" ]; then
   echo "ok   study without convergence"; passed=$((passed+1)); else echo "FAIL study without convergence"; failed=$((failed+1)); fi
-check study_bad_cost 2 "--cost must be wall or tet-steps" -- "$pliant" study "$bar" --sweep 'bodies[0].model="linear"' --cost joules --out "$work/study3"
+check study_bad_cost 2 "--cost must be wall, tet-steps or tet-updates" -- "$pliant" study "$bar" --sweep 'bodies[0].model="linear"' --cost joules --out "$work/study3"
 
 # The measuring commands: a stability subset and a short stress run, each with its exit code.
 check stability_subset 0 "unexpected" -- "$pliant" stability --subset --steps 200

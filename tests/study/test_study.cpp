@@ -268,14 +268,14 @@ TEST(Report, CsvColumnsAndRows) {
   std::getline(in, header);
   EXPECT_EQ(header,
             "run,bodies[0].mesh.box.cells,bodies[0].model,status,run_model,run_precision,run_threads,nodes,tets,dt,steps,substeps,"
-            "simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps,speed,speed_reference,speed_error,"
+            "simulated_time,setup_s,wall_s,repeats,wall_per_sim_s,tet_steps,tet_updates,speed,speed_reference,speed_error,"
             "error,pareto,reference_run,message");
   std::getline(in, row1);
   std::getline(in, row2);
   std::getline(in, row3);
   EXPECT_FALSE(std::getline(in, extra));
   EXPECT_THAT(row1, ::testing::StartsWith("1,\"[10,1,1]\",linear,ok,"));
-  EXPECT_THAT(row1, HasSubstr(",0.1,1,0.2,600,33,31.6,"));  // wall, repeats, wall/sim, tet-steps, value, reference
+  EXPECT_THAT(row1, HasSubstr(",0.1,1,0.2,600,0,33,31.6,"));  // wall, repeats, wall/sim, tet-steps, tet updates, value, reference
   EXPECT_THAT(row2, HasSubstr(",diverged,"));
   EXPECT_THAT(row2, HasSubstr(",nan,0,0,\"body 'bar', level 0, step 3: node 7 has a non-finite position, or velocity\""));
   EXPECT_THAT(row3, ::testing::EndsWith(",1,0,"));  // on the front, not the reference run, no message
@@ -396,7 +396,7 @@ TEST(Study, QuantitiesAreNamedAfterTheirMeasureWithUnits) {
   // In study.csv: the value and the reference carry the unit, the relative error none.
   StudyResult s;
   s.quantities = {quantity_for_measure(parse_measure(R"({"kind": "probe_period", "probe": "end", "axis": "x", "report": "speed", "distance": 1})", "m"))};
-  EXPECT_THAT(study_csv(s), HasSubstr(",tet_steps,end_x_speed_m_per_s,end_x_speed_reference_m_per_s,end_x_speed_error,error,"));
+  EXPECT_THAT(study_csv(s), HasSubstr(",tet_steps,tet_updates,end_x_speed_m_per_s,end_x_speed_reference_m_per_s,end_x_speed_error,error,"));
 }
 
 // A scene without a reference file runs anyway: the length of each probe's displacement at the
@@ -447,6 +447,47 @@ TEST(Study, MeasureAndFinestReference) {
   EXPECT_NEAR(s.runs[1].values[0], -0.3e-3, 0.01e-3);  // -nu F / (E A)
   EXPECT_EQ(s.runs[1].errors[0], 0);
   EXPECT_LT(std::fabs(s.runs[0].errors[0]), 0.02);
+}
+
+// Uniform levels and adaptive runs of one multiresolution body in one study (docs/adaptivity.md):
+// a sweep of the whole multiresolution object, because "adapt" is refused beside a fixed level.
+// Every run has the same mesh (tets, tet-steps), so the cost that tells them apart is the tets
+// computed; the finest run is the uniform finest level.
+TEST(Study, MultiresolutionLevelsAndAdaptiveRunsCostTheirTetUpdates) {
+  const fs::path dir = temp_dir("multires");
+  write(dir / "bar.json", R"({
+    "duration": 0.02, "gravity": [0, 0, -9.81], "precision": "double", "threads": 1,
+    "bodies": [{"name": "bar", "mesh": {"box": {"min": [0, 0, 0], "max": [0.4, 0.1, 0.1], "cells": [8, 2, 2], "tets_per_cell": 6}},
+                "material": {"young": 1e5, "poisson": 0.3, "density": 1000},
+                "fixed": [{"box": {"min": [-1, -1, -1], "max": [0, 1, 1]}}]}],
+    "probes": [{"name": "tip", "body": "bar", "point": [0.4, 0.05, 0.05]}]})");
+  StudyOptions o;
+  o.scene = dir / "bar.json";
+  o.sweeps = {R"(bodies[0].multiresolution={"levels":2,"active":0}|{"levels":2,"active":1}|)"
+              R"({"levels":2,"active":"adaptive","adapt":{"refine_above":0.5,"coarsen_below":0.1}})"};
+  o.measure = R"({"kind": "probe_mean", "probe": "tip", "axis": "z"})";
+  o.reference = "finest";
+  o.cost = parse_cost("tet-updates");
+  o.out_dir = dir / "study";
+  o.min_time = 0;
+  const StudyResult s = run_study(o);
+  ASSERT_EQ(s.runs.size(), 3u);
+  for (const RunRecord& r : s.runs) {
+    EXPECT_EQ(r.status, "ok") << r.message;
+    EXPECT_EQ(r.tets, 8u * 2 * 2 * 6);  // the finest mesh, whatever level runs
+    EXPECT_EQ(r.nodes, 9u * 3 * 3);
+  }
+  EXPECT_EQ(s.runs[0].tet_steps(), s.runs[1].tet_steps());
+  // Level 0 (4x1x1 cells, 24 tets) steps at a period 4 times level 1's (96 tets): 1/16.
+  EXPECT_NEAR(s.runs[0].tet_updates / s.runs[1].tet_updates, 1.0 / 16, 1e-12);
+  EXPECT_EQ(s.finest, 1);  // ties in tet-steps go to the most tet updates
+  // Adaptive with high thresholds stays on level 0 (a 2 cm sag jumps far less than 0.5).
+  EXPECT_EQ(s.runs[2].tet_updates, s.runs[0].tet_updates);
+  EXPECT_NE(s.runs[0].values[0], s.runs[1].values[0]);
+  EXPECT_THAT(read(dir / "study" / "study.csv"), HasSubstr(",tet_steps,tet_updates,"));
+  EXPECT_THAT(read(dir / "study" / "study.md"), HasSubstr("tet updates"));
+  EXPECT_THAT(error_of([] { parse_cost("tets"); }), HasSubstr("--cost must be wall, tet-steps or tet-updates, got 'tets'"));
+  EXPECT_EQ(to_string(CostKind::tet_updates), "tet-updates");
 }
 
 }  // namespace

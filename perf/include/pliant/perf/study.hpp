@@ -157,7 +157,7 @@ struct RunRecord {
   std::string message;
   std::string model, precision;
   int threads = 1;
-  std::size_t nodes = 0, tets = 0;
+  std::size_t nodes = 0, tets = 0;     // of each body's mesh (a multiresolution body's finest level)
   std::int64_t steps = 0;
   int substeps = 1;
   double dt = 0, simulated_time = 0;
@@ -170,6 +170,9 @@ struct RunRecord {
   double error = kNaN;                 // max |errors| (NaN if any is NaN)
   bool pareto = false;                 // on the front of cost against error
   bool is_reference = false;           // the finest run, when it is the reference
+  // Tets computed over the run (World::tick_stats): tet_steps for a one-level body, the stepped
+  // tets of every level at their own periods for a multiresolution one (adaptive or not).
+  double tet_updates = 0;
   double wall_per_sim() const { return simulated_time > 0 ? wall_s / simulated_time : kNaN; }
   double tet_steps() const { return double(tets) * double(steps) * double(substeps); }
 };
@@ -184,7 +187,11 @@ void check_measures(const std::vector<QuantityDef>& quantities, const SceneDef& 
 
 // ---- studies ------------------------------------------------------------------------------------
 
-enum class CostKind { wall, tet_steps };
+// The cost of the Pareto front: wall s per simulated s, tets x steps, or tets computed (what a
+// multiresolution body steps: tet-steps would count its finest mesh whatever level it runs).
+enum class CostKind { wall, tet_steps, tet_updates };
+std::string to_string(CostKind k);                  // "wall" | "tet-steps" | "tet-updates"
+CostKind parse_cost(const std::string& text);       // the same; InputError naming the choices
 
 struct StudyOptions {
   std::filesystem::path scene;
