@@ -40,8 +40,12 @@ Command add_stability_command(CLI::App& app) {
               if (!ok) ++unexpected;
               const char* known = ok ? nullptr : stability::known_issue(r.spec);
               if (!ok || r.outcome == stability::Outcome::diverged || o->verbose)
-                fmt::print("[{}/{}] {}: {}{}{}\n", i + 1, n, r.spec.label(), stability::to_string(r.outcome),
+                fmt::print("[{}/{}] {}: {}{}{}{}\n", i + 1, n, r.spec.label(), stability::to_string(r.outcome),
                            ok ? "" : known ? " (UNEXPECTED, known engine issue)" : " (UNEXPECTED)",
+                           r.spec.scenario == "adaptive_push"
+                               ? fmt::format(" ({} splits, {} merges, up to {} finest tets, peak {:.2f}, mass to {:.2g})",
+                                             r.splits, r.merges, r.max_fine_tets, r.peak_ratio, r.mass_error)
+                               : std::string(),
                            r.message.empty() ? "" : " - " + r.message);
               else if ((i + 1) % 50 == 0 || i + 1 == n)
                 fmt::print("[{}/{}] {:.0f} s, {} unexpected so far\n", i + 1, n,
