@@ -91,7 +91,7 @@ void EnergyMonitor::after_step(const World& w) {
   const double dt = w.dt();
   double driven_k_old = 0, driven_k_new = 0;  // J, of the driven nodes' velocities with their last and new masses
   for_each_level(w, [&](const auto& L) {
-    std::vector<double>& xs = last_x_[li];
+    const std::vector<double>& xs = last_x_[li];
     std::vector<double>& ms = last_m_[li++];
     double power = 0;  // of gravity and loads on the free nodes (W)
     for (std::size_t n = 0; n < L.node_count; ++n) {
@@ -107,23 +107,54 @@ void EnergyMonitor::after_step(const World& w) {
         for (int k = 0; k < 3; ++k) {
           const double f = double(L.mass[n]) * g[k] + (L.external[k].empty() ? 0.0 : double(L.external[k][n]));
           power += f * double(L.v[k][n]);
-          xs[3 * n + std::size_t(k)] = double(L.x[k][n]);
         }
         continue;
       }
-      // Only fixed and prescribed nodes drive the body. A ghost's force is internal (the step
-      // hands it to the coarser nodes it follows) and an inactive node has none: counting their
-      // |f . dx| would only widen the budget.
-      const bool driven = L.state[n] == kNodeFixed;
+      // Fixed and prescribed nodes drive the body (ghosts: below; inactive nodes have no force).
+      if (L.state[n] != kNodeFixed) continue;
       double dw = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double x = double(L.x[k][n]);
-        if (driven) dw += double(L.f[k][n]) * (x - xs[3 * n + std::size_t(k)]);
-        xs[3 * n + std::size_t(k)] = x;
-      }
+      for (int k = 0; k < 3; ++k) dw += double(L.f[k][n]) * (double(L.x[k][n]) - xs[3 * n + std::size_t(k)]);
       work_ += std::abs(dw);
     }
     load_work_ += dt * power;
+  });
+  // A multiresolution body: the forces on a ghost go to the coarser nodes it follows, with its
+  // weights, and a fixed or prescribed one takes its share as part of its reaction without it
+  // being in its f. The share that goes to driven nodes is work they do on the body: w f_g . dx_s
+  // for each driven source s (the rest, handed to free nodes, is internal and not counted).
+  std::size_t base = 0;
+  for (std::size_t b = 0; b < w.body_count(); ++b) {
+    const int levels = w.level_count(BodyId(b));
+    for (int l = 0; l < levels; ++l) {
+      auto ghosts = [&](const auto& L, auto tag) {
+        using T = decltype(tag);
+        for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
+          const auto gn = std::size_t(L.ghosts[i]);
+          double dw = 0;
+          for (auto e = L.ghost_offsets[i]; e < L.ghost_offsets[i + 1]; ++e) {
+            const int sl = L.ghost_source_level[std::size_t(e)];
+            const auto sn = std::size_t(L.ghost_source_node[std::size_t(e)]);
+            const Level<T>& S = w.level<T>(BodyId(b), sl);
+            if (S.state[sn] != kNodeFixed) continue;
+            const std::vector<double>& sx = last_x_[base + std::size_t(sl)];
+            for (int k = 0; k < 3; ++k)
+              dw += L.ghost_weight[std::size_t(e)] * double(L.f[k][gn]) * (double(S.x[k][sn]) - sx[3 * sn + std::size_t(k)]);
+          }
+          work_ += std::abs(dw);
+        }
+      };
+      if (w.precision() == Precision::float32)
+        ghosts(w.level<float>(BodyId(b), l), float{});
+      else
+        ghosts(w.level<double>(BodyId(b), l), double{});
+    }
+    base += std::size_t(levels);
+  }
+  li = 0;
+  for_each_level(w, [&](const auto& L) {
+    std::vector<double>& xs = last_x_[li++];
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int k = 0; k < 3; ++k) xs[3 * n + std::size_t(k)] = double(L.x[k][n]);
   });
   // An adaptive body's split or merge moves mass between driven nodes and free ones (the lumped
   // masses follow the stepped tets): mass that leaves a pushed face takes the face's velocity,
