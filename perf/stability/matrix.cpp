@@ -346,8 +346,14 @@ CellResult run_cell(const CellSpec& spec, int threads) {
 }
 
 const char* known_issue(const CellSpec& c) {
-  (void)c;  // none open: see the findings of markdown_report for what was fixed
-  return nullptr;
+  // Open, reported, in engine/src/multires/adaptivity.cpp (not this harness's to fix): see
+  // docs/stability.md, "The adaptive rows".
+  if (c.scenario == "adaptive_push")
+    return "a merge while the pushed beam is still moving adds energy (engine/src/multires/adaptivity.cpp, "
+           "adapt_body): kinetic + elastic jumps 3.5x at the first merge (0.056 J to 0.197 J between steps 230 and "
+           "240 of `adaptive_push linear double dt=0.9x refine_above=0.003`), while the same beam all fine or all "
+           "coarse stays below 0.08 J";
+  return nullptr;  // no other open: see the findings of markdown_report for what was fixed
 }
 
 std::vector<CellSpec> matrix_cells(const MatrixOptions& o) {
@@ -476,8 +482,28 @@ it, which take the face's velocity; that kinetic energy was in the budget only a
 the driven nodes carry", an instantaneous term, and left it with the mass. The budget now adds the
 kinetic energy that leaves the driven nodes when their masses change (zero for every body that is
 not adaptive, whose verdicts and hashes are unchanged), and the work of driven nodes counts only
-fixed and prescribed ones (a ghost's force is internal). With the engine's split and merge as
-they are, every cell then passes.
+fixed and prescribed ones. Then two stress scenes (seed 7, indices 30 and 37) were still
+"unbounded" at 1.5x while the same bodies all fine or all coarse passed: a driven coarse node that
+feeds fine ghosts takes their forces as part of its reaction without having them in its f (the
+impulse-taking integrator drops them for non-free nodes), so the monitor missed the push's work
+through the ghosts (0.070 J counted of 0.127 J). It now counts each ghost's share that goes to
+driven sources, w f_g . dx_s (the share handed to free nodes is internal). With the engine's split
+and merge as they are, the cells below are then judged like any other.
+
+**A bug (open, in engine/src/multires/adaptivity.cpp; found 2026-11-25, reported, not fixed here:
+that code is other engineers' work in progress).** In the full run (2000 ticks, so the push is
+slower than in the ctest subset's 1000) a merge that comes while the beam is still being pushed
+or is swinging back adds energy: in `adaptive_push linear double E=1e+06 nu=0.3 dt=0.9x
+refine_above=0.003`, kinetic + elastic goes from 0.056 J to 0.197 J between steps 230 and 240,
+at the body's first merge (45 splits so far), while the driven work grew by 0.007 J; the same beam
+with all its nodes fine, or all coarse (multiresolution.active = finest / coarsest), stays below
+0.08 J and is stable. These are divergences at 0.9x and 1.0x the bound: bugs, listed at the end
+(not as expected, `pliant stability` exits 3). Switching off adapt_body's momentum correction (a
+local experiment, not committed) made that cell stable (48 splits, 48 merges) but made
+`refine_above=0.03` diverge at its third merge, so the correction is not the whole cause: the state
+a merge gives the coarse node next to a moving support (restricted from the finer field) is the
+next suspect. The ctest subset (1000 ticks, refine_above 0.01, 1.0x) passes; it does not cover
+this.
 
 An observation for engine/src/multires/adaptivity.cpp (not a failed verdict): `adapt_body` keeps
 the linear momentum of the *free* nodes by adding one uniform velocity to all of them. When a change
