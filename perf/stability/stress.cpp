@@ -124,7 +124,6 @@ struct Scene {
   double cp = 0;
 };
 
-
 // An adaptive body: a box of 2 or 3 levels, ratio 2, 6 tets per cell (fine cells a multiple of
 // 2^(levels-1), so the levels nest), or, one time in six, fine cells one short of that multiple
 // (the coarser boxes, ceil(cells / 2^k), then have nodes that are not fine nodes: non-nested).
@@ -194,7 +193,7 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
   high.max = {length + 1, size[1] + 1, size[2] + 1};
   b.fixed.push_back(low);
   // The pulse: rest, push to A over a ramp, hold, back to rest (once or twice, the second time
-  // perhaps the other way), then rest for at least the last 40% of the run.
+  // perhaps the other way), all within the first half of the run, then rest.
   PrescribedMotionDef m;
   m.region = high;
   const double amp = (stvk ? 0.1 : 0.25) * r.uniform(0.3, 1.0) * length;
@@ -230,7 +229,7 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
   s.steps = r.integer(1500, 3000);
   s.description = fmt::format(
       "adaptive {} box {:.3f}x{:.3f}x{:.3f} {}x{}x{}x6, {} levels ({} fine tets), refine_above {:.3g} coarsen_below "
-      "{:.3g}, {} {}, E={:.3g} nu={:g} rho={:.0f}{}, fixed end, {} pulse(s) of {:.3f} m, dt {}, {} thr",
+      "{:.3g}, {} {}, E={:.3g} nu={:g} rho={:.0f}{}, fixed end, {} pulse(s) of up to {:.3f} m, dt {}, {} thr",
       s.adapt_kind, size[0], size[1], size[2], cells[0], cells[1], cells[2], levels, s.mesh.tet_count(), ad.refine_above,
       ad.coarsen_below, to_string(b.model), to_string(s.world.precision), mat.young, mat.poisson, mat.density,
       damping == 0 ? "" : damping == 4 ? ", Rayleigh damping" : fmt::format(", mass damping {:.1f}/s", mat.damping.mass),
@@ -365,7 +364,6 @@ Scene random_scene(std::uint64_t seed, const StressOptions& o) {
                               s.dt_mode, s.world.threads);
   return s;
 }
-
 
 // An adaptive scene's times were drawn as fractions of the run; `duration` (s) is steps x dt.
 // The pulse is then slowed (its amplitude scaled down) where a ramp would move the end faster

@@ -160,6 +160,7 @@ struct MatrixOptions {
   int steps = 2000;       // per cell
   int threads = 1;
   std::string machine;    // the CPU the report names (pliant stability fills it from /proc/cpuinfo)
+  std::string filter;     // run only the cells whose label() contains this (empty: all)
   std::function<void(const CellResult&, std::size_t index, std::size_t count)> progress;
 };
 
