@@ -17,7 +17,7 @@ Command add_stability_command(CLI::App& app) {
   struct Options {
     bool subset = false, verbose = false;
     int steps = 0, threads = 1;
-    std::string markdown;
+    std::string markdown, filter;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand("stability", "The stability matrix: materials x time steps x models x precisions");
@@ -26,6 +26,8 @@ Command add_stability_command(CLI::App& app) {
   sub->add_option("--threads", o->threads, "Worker threads per cell")->capture_default_str();
   sub->add_option("--markdown", o->markdown, "Write the generated table (docs/stability.md)");
   sub->add_flag("--verbose,-v", o->verbose, "One line per cell");
+  sub->add_option("--filter", o->filter,
+                  "Run only the cells whose label contains this text (as printed, e.g. \"adaptive_push linear double\")");
   return {sub, [o]() -> int {
             if (o->threads < 1) throw InputError("--threads must be >= 1");
             stability::MatrixOptions mo;
@@ -33,6 +35,9 @@ Command add_stability_command(CLI::App& app) {
             mo.steps = o->steps > 0 ? o->steps : (o->subset ? 1000 : 2000);
             mo.threads = o->threads;
             mo.machine = perf::machine_description();
+            mo.filter = o->filter;
+            if (!o->filter.empty() && !o->markdown.empty())
+              throw InputError("--filter runs part of the matrix: it cannot write --markdown (the whole table)");
             const auto t0 = std::chrono::steady_clock::now();
             int unexpected = 0;
             mo.progress = [&](const stability::CellResult& r, std::size_t i, std::size_t n) {
@@ -40,8 +45,12 @@ Command add_stability_command(CLI::App& app) {
               if (!ok) ++unexpected;
               const char* known = ok ? nullptr : stability::known_issue(r.spec);
               if (!ok || r.outcome == stability::Outcome::diverged || o->verbose)
-                fmt::print("[{}/{}] {}: {}{}{}\n", i + 1, n, r.spec.label(), stability::to_string(r.outcome),
+                fmt::print("[{}/{}] {}: {}{}{}{}\n", i + 1, n, r.spec.label(), stability::to_string(r.outcome),
                            ok ? "" : known ? " (UNEXPECTED, known engine issue)" : " (UNEXPECTED)",
+                           r.spec.scenario == "adaptive_push"
+                               ? fmt::format(" ({} splits, {} merges, up to {} finest tets, peak {:.2f}, mass to {:.2g})",
+                                             r.splits, r.merges, r.max_fine_tets, r.peak_ratio, r.mass_error)
+                               : std::string(),
                            r.message.empty() ? "" : " - " + r.message);
               else if ((i + 1) % 50 == 0 || i + 1 == n)
                 fmt::print("[{}/{}] {:.0f} s, {} unexpected so far\n", i + 1, n,

@@ -33,6 +33,18 @@ const char* to_string(Outcome o) {
   return "?";
 }
 
+double body_mass(const World& w, BodyId body) {
+  double total = 0;
+  for (int l = 0; l < w.level_count(body); ++l) {
+    if (w.precision() == Precision::float32) {
+      for (float m : w.level<float>(body, l).mass) total += double(m);
+    } else {
+      for (double m : w.level<double>(body, l).mass) total += m;
+    }
+  }
+  return total;
+}
+
 void EnergyMonitor::start(const World& w) {
   *this = EnergyMonitor{};
   const Energies e = w.energies();
@@ -41,27 +53,32 @@ void EnergyMonitor::start(const World& w) {
   double mass = 0, diag2 = 0, strain_floor = 0;
   for_each_level(w, [&](const auto& L) {
     // Energy of a uniform strain at rounding-noise level (1e-4 in float, 1e-7 in double): below it
-    // an energy ratio says nothing about stability.
+    // an energy ratio says nothing about stability. Over the stepped tets only: a multiresolution
+    // body steps part of each level (all of a single level).
     using T = std::remove_cv_t<std::remove_reference_t<decltype(L.mass[0])>>;
     const double eps = sizeof(T) == 4 ? 1e-4 : 1e-7;
     double volume = 0;
-    for (std::size_t t = 0; t < L.tet_count; ++t) volume += double(L.volume[t]);
+    for (const Range& run : L.stepped_runs)
+      for (std::size_t t = run.begin; t < run.end; ++t) volume += double(L.volume[t]);
     const double modulus = L.model == ForceModel::springs ? 3.0 * double(L.young) : double(L.lambda) + 2 * double(L.mu);
     strain_floor += 0.5 * modulus * eps * eps * volume;
-    std::vector<double> xs;
+    // Every node's position, so that the work of driven nodes is measured even when an adaptive
+    // body changes which nodes are driven, ghosts or inactive (their count changes).
+    std::vector<double> xs(3 * L.node_count), ms(L.node_count, 0.0);
     double lo[3] = {1e300, 1e300, 1e300}, hi[3] = {-1e300, -1e300, -1e300};
     for (std::size_t n = 0; n < L.node_count; ++n) {
       mass += double(L.mass[n]);
       for (int k = 0; k < 3; ++k) {
         lo[k] = std::min(lo[k], double(L.X[k][n]));
         hi[k] = std::max(hi[k], double(L.X[k][n]));
+        xs[3 * n + std::size_t(k)] = double(L.x[k][n]);
       }
-      if (L.state[n] != kNodeFree)
-        for (int k = 0; k < 3; ++k) xs.push_back(double(L.x[k][n]));
+      if (L.state[n] == kNodeFixed) ms[n] = double(L.mass[n]);
     }
     diag2 = std::max(diag2, (hi[0] - lo[0]) * (hi[0] - lo[0]) + (hi[1] - lo[1]) * (hi[1] - lo[1]) +
                                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
     last_x_.push_back(std::move(xs));
+    last_m_.push_back(std::move(ms));
   });
   floor_ = 1e-9 * mass * 9.81 * std::sqrt(diag2) + strain_floor;
   kinetic_.push_back(e.kinetic);
@@ -72,11 +89,20 @@ void EnergyMonitor::after_step(const World& w) {
   std::size_t li = 0;
   const Vec3d g = w.gravity();
   const double dt = w.dt();
+  double driven_k_old = 0, driven_k_new = 0;  // J, of the driven nodes' velocities with their last and new masses
   for_each_level(w, [&](const auto& L) {
-    std::vector<double>& xs = last_x_[li++];
-    std::size_t j = 0;
+    const std::vector<double>& xs = last_x_[li];
+    std::vector<double>& ms = last_m_[li++];
     double power = 0;  // of gravity and loads on the free nodes (W)
     for (std::size_t n = 0; n < L.node_count; ++n) {
+      const double m_new = L.state[n] == kNodeFixed ? double(L.mass[n]) : 0.0;
+      if (ms[n] != m_new) {
+        double v2 = 0;
+        for (int k = 0; k < 3; ++k) v2 += double(L.v[k][n]) * double(L.v[k][n]);
+        driven_k_old += 0.5 * ms[n] * v2;
+        driven_k_new += 0.5 * m_new * v2;
+        ms[n] = m_new;
+      }
       if (L.state[n] == kNodeFree) {
         for (int k = 0; k < 3; ++k) {
           const double f = double(L.mass[n]) * g[k] + (L.external[k].empty() ? 0.0 : double(L.external[k][n]));
@@ -84,16 +110,58 @@ void EnergyMonitor::after_step(const World& w) {
         }
         continue;
       }
+      // Fixed and prescribed nodes drive the body (ghosts: below; inactive nodes have no force).
+      if (L.state[n] != kNodeFixed) continue;
       double dw = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double x = double(L.x[k][n]);
-        dw += double(L.f[k][n]) * (x - xs[j]);
-        xs[j++] = x;
-      }
+      for (int k = 0; k < 3; ++k) dw += double(L.f[k][n]) * (double(L.x[k][n]) - xs[3 * n + std::size_t(k)]);
       work_ += std::abs(dw);
     }
     load_work_ += dt * power;
   });
+  // A multiresolution body: the forces on a ghost go to the coarser nodes it follows, with its
+  // weights, and a fixed or prescribed one takes its share as part of its reaction without it
+  // being in its f. The share that goes to driven nodes is work they do on the body: w f_g . dx_s
+  // for each driven source s (the rest, handed to free nodes, is internal and not counted).
+  std::size_t base = 0;
+  for (std::size_t b = 0; b < w.body_count(); ++b) {
+    const int levels = w.level_count(BodyId(b));
+    for (int l = 0; l < levels; ++l) {
+      auto ghosts = [&](const auto& L, auto tag) {
+        using T = decltype(tag);
+        for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
+          const auto gn = std::size_t(L.ghosts[i]);
+          double dw = 0;
+          for (auto e = L.ghost_offsets[i]; e < L.ghost_offsets[i + 1]; ++e) {
+            const int sl = L.ghost_source_level[std::size_t(e)];
+            const auto sn = std::size_t(L.ghost_source_node[std::size_t(e)]);
+            const Level<T>& S = w.level<T>(BodyId(b), sl);
+            if (S.state[sn] != kNodeFixed) continue;
+            const std::vector<double>& sx = last_x_[base + std::size_t(sl)];
+            for (int k = 0; k < 3; ++k)
+              dw += L.ghost_weight[std::size_t(e)] * double(L.f[k][gn]) * (double(S.x[k][sn]) - sx[3 * sn + std::size_t(k)]);
+          }
+          work_ += std::abs(dw);
+        }
+      };
+      if (w.precision() == Precision::float32)
+        ghosts(w.level<float>(BodyId(b), l), float{});
+      else
+        ghosts(w.level<double>(BodyId(b), l), double{});
+    }
+    base += std::size_t(levels);
+  }
+  li = 0;
+  for_each_level(w, [&](const auto& L) {
+    std::vector<double>& xs = last_x_[li++];
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int k = 0; k < 3; ++k) xs[3 * n + std::size_t(k)] = double(L.x[k][n]);
+  });
+  // An adaptive body's split or merge moves mass between driven nodes and free ones (the lumped
+  // masses follow the stepped tets): mass that leaves a pushed face takes the face's velocity,
+  // and its kinetic energy, into the free body. The driven nodes gave that energy; the budget
+  // counts it (their kinetic energy itself is only in S while they carry it). Zero when no mass
+  // changes (every body but an adaptive one).
+  if (driven_k_old > driven_k_new) work_ += driven_k_old - driven_k_new;
 }
 
 bool EnergyMonitor::sample(const World& w) {
@@ -102,7 +170,7 @@ bool EnergyMonitor::sample(const World& w) {
   double k_nonfree = 0;
   for_each_level(w, [&](const auto& L) {
     for (std::size_t n = 0; n < L.node_count; ++n) {
-      if (L.state[n] == kNodeFree) continue;
+      if (L.state[n] != kNodeFixed) continue;  // driven nodes (ghosts follow free ones)
       double v2 = 0;
       for (int k = 0; k < 3; ++k) v2 += double(L.v[k][n]) * double(L.v[k][n]);
       k_nonfree += 0.5 * double(L.mass[n]) * v2;

@@ -73,6 +73,12 @@ RegionDef face_x(double x) {
 
 TetMesh beam_mesh() { return make_box_mesh({0, 0, 0}, {kLength, kWidth, kWidth}, {6, 2, 2}, 6); }
 
+double mesh_volume(const TetMesh& m) {  // m^3
+  double v = 0;
+  for (const Tet& t : m.tets) v += signed_tet_volume(m.point(t[0]), m.point(t[1]), m.point(t[2]), m.point(t[3]));
+  return v;
+}
+
 // The setup of a cell; `dt` is the step the cell will use (0 for the probe world that measures
 // the bound), needed by compress_90 to time its motion over the run.
 Setup make_setup(const CellSpec& s, double dt) {
@@ -85,9 +91,43 @@ Setup make_setup(const CellSpec& s, double dt) {
   u.mesh = beam_mesh();
   const std::string& sc = s.scenario;
   if (sc == "cantilever" || sc == "inverted_input" || sc == "inverted_state" || sc == "rotated_rest" ||
-      sc == "compress_90" || sc == "slivers")
+      sc == "compress_90" || sc == "slivers" || sc == "adaptive_push")
     u.body.fixed.push_back(face_x(0));
   if (sc == "cantilever") {
+  } else if (sc == "adaptive_push") {
+    // The beam as an adaptive body of 3 nested levels (ratio 2, 6 tets per cell): 3 x 1 x 1 cells
+    // (18 tets, where it starts), 6 x 2 x 2 (the other cells' beam) and 12 x 4 x 4 (1152 tets).
+    // Its free end is pushed 2 cm sideways over 15% of the run, held for 10%, brought back over
+    // 15%, then left to ring for the last 55%: strain comes (splits) and goes (merges).
+    MeshSourceDef& m = u.body.mesh;
+    m.kind = MeshSourceDef::Kind::box;
+    m.min = {0, 0, 0};
+    m.max = {kLength, kWidth, kWidth};
+    m.cells = {12, 4, 4};
+    m.tets_per_cell = 6;
+    u.mesh = make_box_mesh(m.min, m.max, m.cells, 6);
+    u.body.multiresolution.levels = 3;
+    u.body.multiresolution.ratio = 2;
+    u.body.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+    AdaptDef& ad = u.body.multiresolution.active.adapt;
+    ad.refine_above = s.refine_above > 0 ? s.refine_above : ad.refine_above;
+    ad.coarsen_below = ad.refine_above / 4;
+    const double run = dt > 0 ? s.steps * dt : 1.0;  // s
+    ad.min_dwell = 0.05 * run;
+    ad.check_every = 0;
+    PrescribedMotionDef push;
+    push.region = face_x(kLength);
+    const Vec3d side{0, 0.2 * kLength, 0};
+    push.keyframes = {{0.0, {0, 0, 0}}, {0.05 * run, {0, 0, 0}}, {0.2 * run, side}, {0.3 * run, side}, {0.45 * run, {0, 0, 0}}};
+    u.body.prescribed.push_back(push);
+    // Critically damped first bending mode (omega_1 = 1.875^2 / L^2 sqrt(E I / (rho A)), I / A =
+    // w^2 / 12): the run is only a fraction of its period (the step resolves the finest tets), so
+    // without damping the beam would still swing at the end and never calm enough to merge.
+    const double omega1 = 1.875 * 1.875 / (kLength * kLength) * std::sqrt(s.young * kWidth * kWidth / (12 * kDensity));
+    u.body.material.damping.mass = 2 * omega1;
+    u.note = fmt::format("3 levels: 18 / 144 / 1152 tets; refine_above {:g}, coarsen_below {:g}, min_dwell 5% of the run, "
+                         "mass damping {:.0f}/s",
+                         ad.refine_above, ad.coarsen_below, u.body.material.damping.mass);
   } else if (sc == "inverted_input") {
     std::size_t swapped = 0;
     for (std::size_t t = 0; t < u.mesh.tets.size(); t += 2, ++swapped) std::swap(u.mesh.tets[t][0], u.mesh.tets[t][1]);
@@ -162,20 +202,27 @@ Setup make_setup(const CellSpec& s, double dt) {
 
 const std::vector<std::string>& scenarios() {
   static const std::vector<std::string> names = {"cantilever",    "inverted_input", "inverted_state", "rotated_rest",
-                                                 "rotated_state", "compress_90",    "spin_100",       "slivers"};
+                                                 "rotated_state", "compress_90",    "spin_100",       "slivers",
+                                                 "adaptive_push"};
   return names;
 }
 
 std::string CellSpec::label() const {
-  return fmt::format("{} {} {} E={:g} nu={:g} dt={:g}x{}", scenario, pliant::to_string(model),
+  return fmt::format("{} {} {} E={:g} nu={:g} dt={:g}x{}{}", scenario, pliant::to_string(model),
                      pliant::to_string(precision), young, poisson, dt_factor,
-                     dt_factor > 1 ? (substep ? " substep" : " no-substep") : "");
+                     dt_factor > 1 ? (substep ? " substep" : " no-substep") : "",
+                     scenario == "adaptive_push" ? fmt::format(" refine_above={:g}", refine_above) : "");
+}
+
+bool CellResult::acceptable_mass() const {
+  return mass_error <= (spec.precision == Precision::float32 ? kAdaptMassToleranceFloat : kAdaptMassToleranceDouble);
 }
 
 // Expected: refused exactly when dt is above the bound without sub-stepping, clamped when it is
 // above the bound with sub-stepping (or the adaptive step sub-stepped); never diverged.
 bool CellResult::acceptable() const {
   const bool above = spec.dt_factor > 1.0;
+  if (!acceptable_mass()) return false;
   if (outcome == Outcome::refused) return above && !spec.substep;
   if (outcome == Outcome::clamped) return (above && spec.substep) || adapted_steps > 0;
   if (outcome == Outcome::diverged) return false;
@@ -239,14 +286,30 @@ CellResult run_cell(const CellSpec& spec, int threads) {
   mon.start(w);
   const int sample_every = 10;
   bool bounded = true;
+  // An adaptive body weighs rho x the finest mesh's volume after every split and merge.
+  const bool adaptive = u.body.multiresolution.active.kind == ActiveDef::Kind::adaptive;
+  const double expected_mass = adaptive ? kDensity * mesh_volume(u.mesh) : 0;
+  auto adapt_record = [&]() {
+    if (!adaptive) return;
+    r.mass_error = std::max(r.mass_error, std::abs(body_mass(w, b) - expected_mass) / expected_mass);
+    const World::AdaptStats a = w.adapt_stats(b);
+    r.splits = a.splits;
+    r.merges = a.merges;
+    r.max_fine_tets = std::max(r.max_fine_tets, w.level_info(b, w.level_count(b) - 1).stepped_tets);
+  };
+  adapt_record();
   try {
     for (int i = 1; i <= spec.steps && bounded; ++i) {
       w.step();
       mon.after_step(w);
-      if (i % sample_every == 0 || i == spec.steps) bounded = mon.sample(w);
+      if (i % sample_every == 0 || i == spec.steps) {
+        bounded = mon.sample(w);
+        adapt_record();
+      }
     }
     if (bounded) bounded = mon.finish();
   } catch (const DivergenceError& e) {
+    adapt_record();
     r.steps_run = w.steps();
     r.max_substeps = w.max_substeps();
     r.adapted_steps = w.adapted_steps();
@@ -265,6 +328,10 @@ CellResult run_cell(const CellSpec& spec, int threads) {
   if (!bounded) {
     r.outcome = Outcome::diverged;
     r.message = fmt::format("step {}: {}", w.steps(), mon.why());
+  } else if (!r.acceptable_mass()) {
+    r.outcome = r.max_substeps > 1 ? Outcome::clamped : Outcome::stable;
+    r.message = fmt::format("mass not conserved: relative error {:.3g} after {} splits and {} merges", r.mass_error,
+                            r.splits, r.merges);
   } else {
     r.outcome = r.max_substeps > 1 ? Outcome::clamped : Outcome::stable;
     if (r.outcome == Outcome::clamped && r.adapted_steps == 0)
@@ -279,8 +346,14 @@ CellResult run_cell(const CellSpec& spec, int threads) {
 }
 
 const char* known_issue(const CellSpec& c) {
-  (void)c;  // none open: see the findings of markdown_report for what was fixed
-  return nullptr;
+  // Open, reported, in engine/src/multires/adaptivity.cpp (not this harness's to fix): see
+  // docs/stability.md, "The adaptive rows".
+  if (c.scenario == "adaptive_push")
+    return "a merge while the pushed beam is still moving adds energy (engine/src/multires/adaptivity.cpp, "
+           "adapt_body): kinetic + elastic jumps 3.5x at the first merge (0.056 J to 0.197 J between steps 230 and "
+           "240 of `adaptive_push linear double dt=0.9x refine_above=0.003`), while the same beam all fine or all "
+           "coarse stays below 0.08 J";
+  return nullptr;  // no other open: see the findings of markdown_report for what was fixed
 }
 
 std::vector<CellSpec> matrix_cells(const MatrixOptions& o) {
@@ -319,7 +392,8 @@ std::vector<CellSpec> matrix_cells(const MatrixOptions& o) {
              : std::vector<std::pair<double, double>>{{1e6, 0.49}};
   const std::vector<Dt> xdts =
       o.full ? std::vector<Dt>{{0.9, false}, {1.0, false}, {1.2, true}} : std::vector<Dt>{{0.9, false}};
-  for (std::size_t s = 1; s < scenarios().size(); ++s)
+  for (std::size_t s = 1; s < scenarios().size(); ++s) {
+    if (scenarios()[s] == "adaptive_push") continue;  // its own rows, below
     for (Precision p : precisions)
       for (ForceModel m : models)
         for (const auto& [E, nu] : mats)
@@ -335,11 +409,34 @@ std::vector<CellSpec> matrix_cells(const MatrixOptions& o) {
             c.steps = o.steps;
             out.push_back(c);
           }
+  }
+  // The adaptive rows: model x time step x threshold on the 3-level beam pushed and released,
+  // both precisions. The thresholds: 0.003 (splits at the first push, nearly everywhere), 0.01
+  // and 0.03 (only near the clamp, at the push's peak). The ctest subset keeps the middle one at
+  // 1.0x (the default step).
+  const std::vector<double> thresholds = o.full ? std::vector<double>{0.003, 0.01, 0.03} : std::vector<double>{0.01};
+  const std::vector<Dt> adts = o.full ? dts_full : std::vector<Dt>{{1.0, false}};
+  for (Precision p : precisions)
+    for (ForceModel m : models)
+      for (double th : thresholds)
+        for (const Dt& d : adts) {
+          CellSpec c;
+          c.scenario = "adaptive_push";
+          c.model = m;
+          c.precision = p;
+          c.dt_factor = d.factor;
+          c.substep = d.substep;
+          c.refine_above = th;
+          c.steps = o.steps;
+          out.push_back(c);
+        }
   return out;
 }
 
 std::vector<CellResult> run_matrix(const MatrixOptions& o) {
-  const auto cells = matrix_cells(o);
+  auto cells = matrix_cells(o);
+  if (!o.filter.empty())
+    std::erase_if(cells, [&](const CellSpec& c) { return c.label().find(o.filter) == std::string::npos; });
   std::vector<CellResult> out;
   out.reserve(cells.size());
   for (std::size_t i = 0; i < cells.size(); ++i) {
@@ -348,6 +445,146 @@ std::vector<CellResult> run_matrix(const MatrixOptions& o) {
   }
   return out;
 }
+
+
+namespace {
+
+// The adaptive rows of docs/stability.md: what the cells do, a summary drawn from the results
+// (so it says what this run showed, whatever that is) and the table.
+template <class Abbrev>
+std::string adaptive_section(const std::vector<CellResult>& res, Abbrev&& abbrev) {
+  std::vector<const CellResult*> cells;
+  for (const auto& r : res)
+    if (r.spec.scenario == "adaptive_push") cells.push_back(&r);
+  if (cells.empty()) return {};
+  std::string s = R"(
+## The adaptive rows
+
+The cantilever beam again (0.1 x 0.025 x 0.025 m, E = 1 MPa, nu = 0.3, fixed at x = 0, gravity,
+the same random kick), as an adaptive multiresolution body (`multiresolution.active = "adaptive"`,
+docs/multiresolution.md "Adaptivity") of 3 nested levels, ratio 2, 6 tets per cell: 3 x 1 x 1
+cells (18 tets, where it starts), 6 x 2 x 2 (144) and 12 x 4 x 4 (1152). Its free end is pushed
+2 cm sideways over 15% of the run (after 5% at rest), held for 10%, brought back over 15% and
+left to ring for the last 55%: the strain comes (nodes split) and goes (the children merge back
+once calm for `min_dwell` = 5% of the run). Rows: the threshold `refine_above` (coarsen_below a
+quarter of it, decisions at every aligned tick) and the time step as a factor of the bound (the
+finest level's, the tick); columns: model and precision. The verdicts are the matrix's (energy
+within 1.5x its budget, no divergence at any step that runs, refused exactly above the bound
+without sub-stepping), plus the body's mass: rho x the finest mesh's volume after every split and
+merge, to 1e-12 (double) or 1e-6 (float) relative, or the cell is not as expected. Each entry:
+outcome (peak M/S), then splits / merges over the run. The beam is critically damped in its
+first bending mode (mass damping 2 omega_1 = 160/s): a run of 1000-2000 ticks is a fraction of that
+mode's period, and undamped it would still swing at the end, never calm enough to merge.
+
+What adding these rows showed, first about the criterion: every adaptive cell failed it at its
+first split (kinetic + elastic 1.7x the budget at step 60), and so did 3 of the first 30 adaptive
+stress scenes. Not an energy gain of the engine: a split near the pushed face moves most of the
+face nodes' lumped mass (0.155 kg to 0.050 kg in stress scene 44) into the free fine nodes next to
+it, which take the face's velocity; that kinetic energy was in the budget only as "kinetic energy
+the driven nodes carry", an instantaneous term, and left it with the mass. The budget now adds the
+kinetic energy that leaves the driven nodes when their masses change (zero for every body that is
+not adaptive, whose verdicts and hashes are unchanged), and the work of driven nodes counts only
+fixed and prescribed ones. Then two stress scenes (seed 7, indices 30 and 37) were still
+"unbounded" at 1.5x while the same bodies all fine or all coarse passed: a driven coarse node that
+feeds fine ghosts takes their forces as part of its reaction without having them in its f (the
+impulse-taking integrator drops them for non-free nodes), so the monitor missed the push's work
+through the ghosts (0.070 J counted of 0.127 J). It now counts each ghost's share that goes to
+driven sources, w f_g . dx_s (the share handed to free nodes is internal). With the engine's split
+and merge as they are, the cells below are then judged like any other.
+
+**A bug (open, in engine/src/multires/adaptivity.cpp; found 2026-11-25, reported, not fixed here:
+that code is other engineers' work in progress).** In the full run (2000 ticks, so the push is
+slower than in the ctest subset's 1000) a merge that comes while the beam is still being pushed
+or is swinging back adds energy: in `adaptive_push linear double E=1e+06 nu=0.3 dt=0.9x
+refine_above=0.003`, kinetic + elastic goes from 0.056 J to 0.197 J between steps 230 and 240,
+at the body's first merge (45 splits so far), while the driven work grew by 0.007 J; the same beam
+with all its nodes fine, or all coarse (multiresolution.active = finest / coarsest), stays below
+0.08 J and is stable. These are divergences at 0.9x and 1.0x the bound: bugs, listed at the end
+(not as expected, `pliant stability` exits 3). To reproduce one: `pliant stability -v --filter
+"adaptive_push linear double E=1e+06 nu=0.3 dt=0.9x refine_above=0.003"` (0.3 s). Switching off adapt_body's momentum correction (a
+local experiment, not committed) made that cell stable (48 splits, 48 merges) but made
+`refine_above=0.03` diverge at its third merge, so the correction is not the whole cause. What the
+jump is, tick by tick: at step 240 one level-0 node merges back while its region is simulated on
+level 2 (level 1 steps 2 tets, level 2 1136): level 0 goes from 0 to 3 stepped tets, level 1 to 0,
+level 2 to 960 with 25 ghost nodes (9 before), and in that one tick the *elastic* energy goes from
+0.0238 J to 0.130 J (kinetic, time-centred, 0.033 to 0.067 J; stored 0.0332 to 0.0356 J): the
+merge leaves the body strained. The likely reason (not verified further): fine nodes that become
+ghosts of level 0, two levels up, are put where level 0's field is, not where their fine
+neighbours are, and the merge test (the children's detail against the next coarser level) may not
+see that gap when the next level is not simulated there. The ctest subset (1000 ticks, refine_above 0.01, 1.0x) passes; it does not cover
+this.
+
+An observation for engine/src/multires/adaptivity.cpp (not a failed verdict): `adapt_body` keeps
+the linear momentum of the *free* nodes by adding one uniform velocity to all of them. When a change
+moves mass between free nodes and fixed or prescribed ones, their momentum changes legitimately
+(the supports take it), and the correction then moves the whole body: at the first split of stress
+scene 44 (`pliant stress --scene 44`, 4 splits at the pushed end, step 144), the free nodes it
+activated on the clamped side (x < -0.2 L in the body frame), interpolated from a coarse field at
+rest there, came out at a mean 0.55 m/s; with the correction switched off (a local experiment, not
+committed), at 0.0008 m/s. The energy stays within the budget, so no verdict fails, but it is
+motion from nowhere near a support: the correction should count only the momentum the change moved
+between free nodes.
+
+)";
+  int split_and_merged = 0, diverged = 0, bad = 0, ran = 0;
+  double worst_peak = 0, worst_mass = 0;
+  std::int64_t splits = 0, merges = 0;
+  std::size_t most_fine = 0;
+  for (const auto* r : cells) {
+    if (r->outcome == Outcome::refused) continue;
+    ++ran;
+    if (r->splits > 0 && r->merges > 0) ++split_and_merged;
+    if (r->outcome == Outcome::diverged) ++diverged;
+    if (!r->acceptable()) ++bad;
+    worst_peak = std::max(worst_peak, r->peak_ratio);
+    worst_mass = std::max(worst_mass, r->mass_error);
+    splits += r->splits;
+    merges += r->merges;
+    most_fine = std::max(most_fine, r->max_fine_tets);
+  }
+  s += fmt::format(
+      "**This run**: {} adaptive cells ran (the others were refused, as expected, above the bound without "
+      "sub-stepping); {} of them both split and merged ({} splits, {} merges in all; at most {} of the 1152 finest "
+      "tets stepped at a sample); {} diverged; the largest energy over its budget was {:.2f}x (the bound is {}x); "
+      "the worst relative mass error was {:.2g}; {} cell(s) not as expected.\n\n",
+      ran, split_and_merged, splits, merges, most_fine, diverged, worst_peak, kBoundFactor, worst_mass, bad);
+  const ForceModel models[] = {ForceModel::linear, ForceModel::stvk, ForceModel::corotational, ForceModel::springs};
+  const Precision precisions[] = {Precision::float32, Precision::float64};
+  s += "| refine_above | dt |";
+  for (ForceModel m : models)
+    for (Precision p : precisions) s += fmt::format(" {} {} |", pliant::to_string(m), pliant::to_string(p));
+  s += "\n|---:|---|";
+  for (int i = 0; i < 8; ++i) s += "---|";
+  s += "\n";
+  std::vector<std::string> rows;
+  std::map<std::string, std::map<std::string, const CellResult*>> table;
+  for (const auto* r : cells) {
+    const std::string row = fmt::format("| {:g} | {:g}x{} |", r->spec.refine_above, r->spec.dt_factor,
+                                        r->spec.dt_factor > 1 ? (r->spec.substep ? " substep" : "") : "");
+    if (!table.count(row)) rows.push_back(row);
+    table[row][fmt::format("{}{}", pliant::to_string(r->spec.model), pliant::to_string(r->spec.precision))] = r;
+  }
+  for (const auto& row : rows) {
+    s += row;
+    for (ForceModel m : models)
+      for (Precision p : precisions) {
+        auto& t = table[row];
+        auto it = t.find(fmt::format("{}{}", pliant::to_string(m), pliant::to_string(p)));
+        if (it == t.end()) {
+          s += " - |";
+          continue;
+        }
+        const CellResult& r = *it->second;
+        s += " " + abbrev(r);
+        if (r.outcome != Outcome::refused) s += fmt::format(" {}/{}", r.splits, r.merges);
+        s += " |";
+      }
+    s += "\n";
+  }
+  return s;
+}
+
+}  // namespace
 
 std::string markdown_report(const std::vector<CellResult>& res, const MatrixOptions& o, double wall_s) {
   std::map<std::string, int> counts;
@@ -365,18 +602,21 @@ std::string markdown_report(const std::vector<CellResult>& res, const MatrixOpti
                    "diverged**; {} cell(s) not as expected.\n\n",
                    res.size(), o.steps, o.threads, wall_s, counts["stable"], counts["clamped"], counts["refused"],
                    counts["diverged"], unacceptable);
-  for (int part = 0; part < 2; ++part) {
+  auto part_of = [](const CellSpec& c) { return c.scenario == "cantilever" ? 0 : c.scenario == "adaptive_push" ? 2 : 1; };
+  for (int part = 0; part < 3; ++part) {
     std::map<std::string, int> c;
     std::size_t n = 0;
     for (const auto& r : res)
-      if ((r.spec.scenario == "cantilever") == (part == 0)) {
+      if (part_of(r.spec) == part) {
         ++n;
         ++c[to_string(r.outcome)];
         if (!r.acceptable()) ++c["bug"];
       }
-    s += fmt::format("- {}: {} cells: {} stable, {} clamped, {} refused, {} diverged ({} not as expected).\n",
-                     part == 0 ? "the matrix (cantilever, 4 models x 5 nu x 4 E x 5 dt x 2 precisions)"
-                               : "the extremes (7 scenarios x 4 models x 2 precisions x 4 materials x 3 dt)",
+    const char* what[] = {"the matrix (cantilever, 4 models x 5 nu x 4 E x 5 dt x 2 precisions)",
+                          "the extremes (7 scenarios x 4 models x 2 precisions x 4 materials x 3 dt)",
+                          "the adaptive rows (3-level beam pushed and released, 4 models x 3 thresholds x 5 dt x 2 "
+                          "precisions)"};
+    s += fmt::format("- {}: {} cells: {} stable, {} clamped, {} refused, {} diverged ({} not as expected).\n", what[part],
                      n, c["stable"], c["clamped"], c["refused"], c["diverged"], c["bug"]);
   }
   // The cells a scene with nothing but defaults runs: "dt": "auto" at Courant number 0.5 is 1.0x.
@@ -400,8 +640,8 @@ std::string markdown_report(const std::vector<CellResult>& res, const MatrixOpti
     }
     s += " A scene's own body can still fall outside what the matrix covers (other meshes, loads, contact).\n";
   }
-  s += R"(
-**Findings.** No cell diverges. The verdicts were tightened (issue 10 §2): a run counted as
+  s += counts["diverged"] == 0 ? "\n**Findings.** No cell diverges." : fmt::format("\n**Findings.** **{} cell(s) diverge** (listed under \"Divergences\" at the end).", counts["diverged"]);
+  s += R"( The verdicts were tightened (issue 10 §2): a run counted as
 stable with up to 10x the energy it was given, and a divergence at 1.0x the bound (the default
 step) was tolerated, so that the E = 100 Pa cantilever of stvk (nu = 0, diverged at step 20) and of
 springs (nu = 0 and 0.3, 1.5x their energy by step 550-1300) diverged with `"dt": "auto"` while the
@@ -554,7 +794,7 @@ by orders of magnitude within tens of steps).
   std::map<std::string, std::map<std::string, const CellResult*>> table;
   std::map<std::string, std::string> notes;
   for (const auto& r : res) {
-    if (r.spec.scenario == "cantilever") continue;
+    if (r.spec.scenario == "cantilever" || r.spec.scenario == "adaptive_push") continue;
     const std::string row = fmt::format("| {} | {:g} | {:g} | {:g}x{} |", r.spec.scenario, r.spec.young, r.spec.poisson,
                                         r.spec.dt_factor, r.spec.substep ? " substep" : "");
     if (!table.count(row)) rows.push_back(row);
@@ -578,10 +818,11 @@ by orders of magnitude within tens of steps).
     for (const auto& [k, v] : notes) s += fmt::format(" {}: {}.", k, v);
     s += "\n";
   }
+  s += adaptive_section(res, abbrev);
   std::vector<const CellResult*> bad;
   for (const auto& r : res)
-    if (r.outcome == Outcome::diverged) bad.push_back(&r);
-  s += "\n## Divergences\n\n";
+    if (r.outcome == Outcome::diverged || !r.acceptable_mass()) bad.push_back(&r);
+  s += "\n## Divergences (and adaptive cells whose mass drifted)\n\n";
   if (bad.empty()) s += "None.\n";
   for (const auto* r : bad) {
     const char* why = known_issue(r->spec);

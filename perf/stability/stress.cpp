@@ -115,9 +115,130 @@ struct Scene {
   double dt_factor = 0;   // 0: auto
   bool substep = false;
   int steps = 0;
+  // Adaptive multiresolution scenes (random_adaptive_scene): the body is def.mesh's box at
+  // `levels` levels, `mesh` its finest level. Times of the prescribed motion's keyframes, of
+  // min_dwell and of check_every are fractions of the run (steps x dt) until run_stress_scene,
+  // which knows dt, turns them into seconds; cp is the P-wave speed (m/s) that caps the motion.
+  bool adaptive = false;
+  std::string adapt_kind;  // "nested" | "non-nested"
+  double cp = 0;
 };
 
+// An adaptive body: a box of 2 or 3 levels, ratio 2, 6 tets per cell (fine cells a multiple of
+// 2^(levels-1), so the levels nest), or, one time in six, fine cells one short of that multiple
+// (the coarser boxes, ceil(cells / 2^k), then have nodes that are not fine nodes: non-nested).
+// One end fixed, the other pushed sideways and released once or twice (a prescribed motion that
+// returns to rest: strain comes and goes, so nodes split and then merge), random thresholds,
+// dwell and decision interval, mostly mass-damped so the body calms after the release.
+Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
+  Rng r{seed ^ 0x5eedada7ull};
+  Scene s;
+  s.adaptive = true;
+  const int levels = r.chance(0.5) ? 2 : 3;
+  const int f = levels == 2 ? 2 : 4;
+  const bool nested = !r.chance(1.0 / 6.0);
+  s.adapt_kind = nested ? "nested" : "non-nested";
+  // Coarsest cells: 2-5 (2-4 at 3 levels) along x, 1-2 (1 at 3 levels) across: at most 960
+  // (2 levels) or 1536 (3 levels) fine tets.
+  const std::array<int, 3> coarse{r.integer(2, levels == 2 ? 5 : 4), levels == 2 ? r.integer(1, 2) : 1,
+                                  levels == 2 ? r.integer(1, 2) : 1};
+  std::array<int, 3> cells{f * coarse[0], f * coarse[1], f * coarse[2]};
+  if (!nested) cells[0] -= 1;
+  const double length = r.uniform(0.1, 0.3);
+  const double a = length / coarse[0];  // coarsest cell (m)
+  const Vec3d size{length, coarse[1] * a * r.uniform(0.6, 1.2), coarse[2] * a * r.uniform(0.6, 1.2)};
+  BodyDef& b = s.body;
+  b.name = "stress";
+  b.mesh.kind = MeshSourceDef::Kind::box;
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = size;
+  b.mesh.cells = cells;
+  b.mesh.tets_per_cell = 6;
+  b.multiresolution.levels = levels;
+  b.multiresolution.ratio = 2;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  AdaptDef& ad = b.multiresolution.active.adapt;
+  ad.refine_above = r.log_uniform(0.003, 0.05);
+  ad.coarsen_below = ad.refine_above * r.uniform(0.05, 0.6);
+  ad.min_dwell = r.uniform(0, 0.15);                          // fraction of the run, for now
+  ad.check_every = r.chance(0.4) ? 0 : r.uniform(0.002, 0.05);  // fraction of the run, for now
+  s.mesh = make_box_mesh(b.mesh.min, b.mesh.max, b.mesh.cells, 6);
+  s.mesh_kind = "adaptive";
+  const ForceModel models[] = {ForceModel::linear, ForceModel::stvk, ForceModel::corotational, ForceModel::springs};
+  b.model = models[r.integer(0, 3)];
+  s.world.precision = r.chance(0.5) ? Precision::float32 : Precision::float64;
+  s.world.threads = r.integer(1, std::max(1, o.threads));
+  s.world.gravity = r.chance(0.7) ? Vec3d{0, 0, -9.81} : Vec3d{0, 0, 0};
+  s.world.time_step.courant = r.chance(0.7) ? 0.5 : r.uniform(0.2, 0.5);
+  auto& mat = b.material;
+  mat.young = r.log_uniform(3e4, 3e6);
+  const double nus[] = {0.0, 0.25, 0.3, 0.4, 0.45};
+  mat.poisson = nus[r.integer(0, 4)];
+  mat.density = r.uniform(500, 2000);
+  const int damping = r.integer(0, 4);  // 0: none, 1-3: mass, 4: Rayleigh
+  if (damping >= 1 && damping <= 3) mat.damping.mass = r.uniform(5, 30);
+  if (damping == 4) mat.damping.stiffness = r.log_uniform(1e-5, 1e-3);
+  const bool stvk = b.model == ForceModel::stvk;
+  {  // own weight strains it by at most 0.5 (0.1 for stvk), as in random_scene
+    const double D = std::sqrt(size[0] * size[0] + size[1] * size[1] + size[2] * size[2]);
+    const double min_young = (stvk ? 10.0 : 2.0) * mat.density * 9.81 * D;
+    if (mat.young < min_young) mat.young = min_young * (1 + r.uniform());
+  }
+  const double nu = mat.poisson;
+  s.cp = std::sqrt(mat.young * (1 - nu) / ((1 + nu) * (1 - 2 * nu)) / mat.density);
+  RegionDef low, high;
+  low.min = {-1, -1, -1};
+  low.max = {1e-9 * length, size[1] + 1, size[2] + 1};
+  high.min = {length * (1 - 1e-9), -1, -1};
+  high.max = {length + 1, size[1] + 1, size[2] + 1};
+  b.fixed.push_back(low);
+  // The pulse: rest, push to A over a ramp, hold, back to rest (once or twice, the second time
+  // perhaps the other way), all within the first half of the run, then rest.
+  PrescribedMotionDef m;
+  m.region = high;
+  const double amp = (stvk ? 0.1 : 0.25) * r.uniform(0.3, 1.0) * length;
+  const double dir = r.uniform(0, 2 * 3.14159265358979);
+  const Vec3d A{r.uniform(-0.2, 0.2) * amp, std::cos(dir) * amp, std::sin(dir) * amp};
+  const int pulses = r.integer(1, 2);
+  double t = r.uniform(0, 0.1);
+  m.keyframes.push_back({0, {0, 0, 0}});
+  m.keyframes.push_back({t, {0, 0, 0}});
+  for (int p = 0; p < pulses; ++p) {
+    const double sign = p == 0 || r.chance(0.5) ? 1.0 : -1.0;
+    const double ramp = r.uniform(0.05, 0.15) / pulses, hold = r.uniform(0, 0.1) / pulses;
+    t += ramp;
+    m.keyframes.push_back({t, {sign * A[0], sign * A[1], sign * A[2]}});
+    t += hold;
+    m.keyframes.push_back({t, {sign * A[0], sign * A[1], sign * A[2]}});
+    t += ramp;
+    m.keyframes.push_back({t, {0, 0, 0}});
+  }
+  b.prescribed.push_back(m);
+  const double mode = r.uniform();
+  if (mode < 0.4) {
+    s.dt_mode = "auto";
+  } else if (mode < 0.8) {
+    const double fs[] = {0.5, 0.9, 1.0};
+    s.dt_factor = fs[r.integer(0, 2)];
+    s.dt_mode = fmt::format("{:g}x", s.dt_factor);
+  } else {
+    s.dt_factor = r.uniform(1.1, 3.0);
+    s.substep = true;
+    s.dt_mode = "substep";
+  }
+  s.steps = r.integer(1500, 3000);
+  s.description = fmt::format(
+      "adaptive {} box {:.3f}x{:.3f}x{:.3f} {}x{}x{}x6, {} levels ({} fine tets), refine_above {:.3g} coarsen_below "
+      "{:.3g}, {} {}, E={:.3g} nu={:g} rho={:.0f}{}, fixed end, {} pulse(s) of up to {:.3f} m, dt {}, {} thr",
+      s.adapt_kind, size[0], size[1], size[2], cells[0], cells[1], cells[2], levels, s.mesh.tet_count(), ad.refine_above,
+      ad.coarsen_below, to_string(b.model), to_string(s.world.precision), mat.young, mat.poisson, mat.density,
+      damping == 0 ? "" : damping == 4 ? ", Rayleigh damping" : fmt::format(", mass damping {:.1f}/s", mat.damping.mass),
+      pulses, amp, s.dt_mode, s.world.threads);
+  return s;
+}
+
 Scene random_scene(std::uint64_t seed, const StressOptions& o) {
+  if (adaptive_scene_seed(seed)) return random_adaptive_scene(seed, o);
   Rng r{seed};
   Scene s;
   const MeshCache& mc = cache(o);
@@ -244,7 +365,37 @@ Scene random_scene(std::uint64_t seed, const StressOptions& o) {
   return s;
 }
 
+// An adaptive scene's times were drawn as fractions of the run; `duration` (s) is steps x dt.
+// The pulse is then slowed (its amplitude scaled down) where a ramp would move the end faster
+// than 5% of the P-wave speed: a prescribed motion, not an impact (as random_scene's motions).
+void timeline_in_seconds(Scene& sc, double duration) {
+  PrescribedMotionDef& m = sc.body.prescribed.front();
+  AdaptDef& ad = sc.body.multiresolution.active.adapt;
+  double shrink = 1;
+  for (std::size_t i = 1; i < m.keyframes.size(); ++i) {
+    const Vec3d& p = m.keyframes[i - 1].offset;
+    const Vec3d& q = m.keyframes[i].offset;
+    const double dist = std::sqrt((q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) + (q[2] - p[2]) * (q[2] - p[2]));
+    const double dt = (m.keyframes[i].time - m.keyframes[i - 1].time) * duration;
+    if (dist > 0) shrink = std::min(shrink, 0.05 * sc.cp * dt / dist);
+  }
+  for (auto& k : m.keyframes) {
+    k.time *= duration;
+    for (int c = 0; c < 3; ++c) k.offset[c] *= shrink;
+  }
+  ad.min_dwell *= duration;
+  ad.check_every *= duration;
+}
+
 }  // namespace
+
+// About one scene in five is an adaptive multiresolution body (issue 14 §3). Which ones is a
+// function of the scene's seed alone (so `--scene 0x...` replays it), from its own stream, so the
+// other scenes are drawn exactly as before (their seeds give the same scenes and hashes).
+bool adaptive_scene_seed(std::uint64_t seed) {
+  std::uint64_t s = seed ^ 0xada971e5ca1e5eefull;
+  return splitmix(s) % 5 == 0;
+}
 
 std::size_t resident_bytes() {
   std::ifstream f("/proc/self/statm");
@@ -268,12 +419,16 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   };
   std::optional<World> world;
   try {
-    if (sc.dt_factor > 0) {
+    if (sc.dt_factor > 0 || sc.adaptive) {
       WorldDef probe_def = sc.world;
       World probe(probe_def);
       probe.add_body(sc.body, sc.mesh);
-      sc.world.time_step.dt = sc.dt_factor * probe.stable_dt();
-      sc.world.time_step.substep = sc.substep;
+      const double bound = probe.stable_dt();
+      if (sc.dt_factor > 0) {
+        sc.world.time_step.dt = sc.dt_factor * bound;
+        sc.world.time_step.substep = sc.substep;
+      }
+      if (sc.adaptive) timeline_in_seconds(sc, sc.steps * (sc.dt_factor > 0 ? sc.dt_factor : 1.0) * bound);
     }
     world.emplace(sc.world);
     world->add_body(sc.body, sc.mesh);
@@ -301,23 +456,58 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   }
   EnergyMonitor mon;
   mon.start(w);
-  bool ok = true;
+  // An adaptive body must weigh rho x the volume of its finest mesh after every split and merge:
+  // the masses of all its levels' nodes (ghosts and inactive nodes hold none) sum to it. Checked
+  // at every energy sample, to rounding of the masses' precision.
+  double expected_mass = 0;
+  if (sc.adaptive) {
+    for (const Tet& t : sc.mesh.tets)
+      expected_mass += signed_tet_volume(sc.mesh.point(t[0]), sc.mesh.point(t[1]), sc.mesh.point(t[2]), sc.mesh.point(t[3]));
+    expected_mass *= sc.body.material.density;
+  }
+  const double mass_tolerance = w.precision() == Precision::float32 ? kAdaptMassToleranceFloat : kAdaptMassToleranceDouble;
+  auto check_mass = [&]() {
+    if (!sc.adaptive) return true;
+    const double total = body_mass(w, 0);
+    const double err = std::abs(total - expected_mass) / expected_mass;
+    out.mass_error = std::max(out.mass_error, err);
+    return err <= mass_tolerance;
+  };
+  bool ok = check_mass();
+  bool mass_ok = ok;
+  auto adapt_stats = [&]() {
+    if (!sc.adaptive) return;
+    const World::AdaptStats a = w.adapt_stats(0);
+    out.splits = a.splits;
+    out.merges = a.merges;
+    out.changes = a.changes;
+  };
+  out.adaptive = sc.adaptive;
   try {
     for (int i = 1; i <= sc.steps && ok; ++i) {
       w.step();
       mon.after_step(w);
-      if (i % 20 == 0 || i == sc.steps) ok = mon.sample(w);
+      if (i % 20 == 0 || i == sc.steps) {
+        ok = mon.sample(w);
+        if (ok) ok = mass_ok = check_mass();
+      }
     }
     if (ok) ok = mon.finish();
   } catch (const DivergenceError& e) {
     out.status = "diverged";
     out.message = e.what();
     out.steps = w.steps();
+    adapt_stats();
     return done();
   }
   out.steps = w.steps() * w.substeps();
   out.hash = w.state_hash();
-  if (!ok) {
+  adapt_stats();
+  if (!mass_ok) {
+    out.status = "mass";
+    out.message = fmt::format("mass not conserved: relative error {:.3g} after {} splits and {} merges (tolerance {:g})",
+                              out.mass_error, out.splits, out.merges, mass_tolerance);
+  } else if (!ok) {
     out.status = mon.why().rfind("non-finite", 0) == 0 ? "nan" : "unbounded";
     out.message = mon.why();
   }
@@ -353,8 +543,19 @@ StressReport run_stress(const StressOptions& o) {
       ++rep.counts["model " + std::string(to_string(sc.body.model))];
       ++rep.counts["precision " + std::string(to_string(sc.world.precision))];
       ++rep.counts["mesh " + sc.mesh_kind];
+      if (sc.adaptive) {
+        ++rep.counts[fmt::format("adaptive {} levels", sc.body.multiresolution.levels)];
+        ++rep.counts["adaptive " + sc.adapt_kind];
+      }
       ++rep.counts["dt " + (sc.dt_mode.back() == 'x' ? std::string("explicit") : sc.dt_mode)];
       ++rep.counts[fmt::format("threads {}", s.threads)];
+    }
+    if (s.adaptive) {
+      ++rep.adaptive_scenes;
+      rep.splits += s.splits;
+      rep.merges += s.merges;
+      if (s.splits > 0 && s.merges > 0) ++rep.adaptive_split_and_merged;
+      rep.max_mass_error = std::max(rep.max_mass_error, s.mass_error);
     }
     if (s.status != "ok") {
       ++rep.failures;
@@ -388,9 +589,10 @@ StressReport run_stress(const StressOptions& o) {
     samples.emplace_back(elapsed(), double(rss));
     if (elapsed() >= next_progress) {
       next_progress = elapsed() + (o.seconds > 600 ? 60 : 10);
-      log(fmt::format("stress: {:.0f} s, {} scenes, {} steps, {} failures, RSS {:.1f} MiB (peak {:.1f})", elapsed(),
-                      rep.scenes, rep.steps, rep.failures + rep.repeat_mismatches, rss / 1048576.0,
-                      rep.rss_peak / 1048576.0));
+      log(fmt::format("stress: {:.0f} s, {} scenes ({} adaptive: {} splits, {} merges), {} steps, {} failures, RSS "
+                      "{:.1f} MiB (peak {:.1f})",
+                      elapsed(), rep.scenes, rep.adaptive_scenes, rep.splits, rep.merges, rep.steps,
+                      rep.failures + rep.repeat_mismatches, rss / 1048576.0, rep.rss_peak / 1048576.0));
     }
   }
   rep.wall_s = elapsed();
@@ -438,6 +640,8 @@ std::string stress_text(const StressReport& r, const StressOptions& o) {
                    r.rss_start / 1048576.0, r.rss_baseline / 1048576.0, r.rss_peak / 1048576.0,
                    r.rss_end / 1048576.0, r.rss_drift / 1048576.0, r.rss_slope_per_min / 1048576.0,
                    r.memory_flat ? "flat" : "GROWING");
+  s += fmt::format("adaptive scenes {} ({} split and merged): splits {}, merges {}; mass conserved to {:.2g} (relative, worst)\n",
+                   r.adaptive_scenes, r.adaptive_split_and_merged, r.splits, r.merges, r.max_mass_error);
   s += fmt::format("digest of the first {} scene hashes: {}\n", r.digest_scenes, hash_hex(r.digest));
   s += "mix:";
   for (const auto& [k, v] : r.counts) s += fmt::format(" {}={}", k, v);

