@@ -348,11 +348,10 @@ CellResult run_cell(const CellSpec& spec, int threads) {
 const char* known_issue(const CellSpec& c) {
   // Open, reported, in engine/src/multires/adaptivity.cpp (not this harness's to fix): see
   // docs/stability.md, "The adaptive rows".
-  if (c.scenario == "adaptive_push")
-    return "a merge while the pushed beam is still moving adds energy (engine/src/multires/adaptivity.cpp, "
-           "adapt_body): kinetic + elastic jumps 3.5x at the first merge (0.056 J to 0.197 J between steps 230 and "
-           "240 of `adaptive_push linear double dt=0.9x refine_above=0.003`), while the same beam all fine or all "
-           "coarse stays below 0.08 J";
+  if (c.scenario == "adaptive_push" && c.refine_above >= 1.0)
+    return "at refine_above 1 (coarsen_below 0.25 of the peak strain), the beam's energy grows past its budget "
+           "after its first merges while it is held pushed (engine/src/multires/adaptivity.cpp; open: the merge "
+           "that left a body strained and the momentum correction of held bodies are fixed, this is not)";
   return nullptr;  // no other open: see the findings of markdown_report for what was fixed
 }
 
@@ -411,10 +410,10 @@ std::vector<CellSpec> matrix_cells(const MatrixOptions& o) {
           }
   }
   // The adaptive rows: model x time step x threshold on the 3-level beam pushed and released,
-  // both precisions. The thresholds: 0.003 (splits at the first push, nearly everywhere), 0.01
-  // and 0.03 (only near the clamp, at the push's peak). The ctest subset keeps the middle one at
-  // 1.0x (the default step).
-  const std::vector<double> thresholds = o.full ? std::vector<double>{0.003, 0.01, 0.03} : std::vector<double>{0.01};
+  // both precisions. The thresholds (relative to the beam's peak strain, AdaptDef::Measure::relative):
+  // 0.25 (splits nearly everywhere while pushed), 0.5 (the default) and 1.0 (only where the strain
+  // varies fastest). The ctest subset keeps the default at 1.0x (the default step).
+  const std::vector<double> thresholds = o.full ? std::vector<double>{0.25, 0.5, 1.0} : std::vector<double>{0.5};
   const std::vector<Dt> adts = o.full ? dts_full : std::vector<Dt>{{1.0, false}};
   for (Precision p : precisions)
     for (ForceModel m : models)
@@ -492,38 +491,31 @@ through the ghosts (0.070 J counted of 0.127 J). It now counts each ghost's shar
 driven sources, w f_g . dx_s (the share handed to free nodes is internal). With the engine's split
 and merge as they are, the cells below are then judged like any other.
 
-**A bug (open, in engine/src/multires/adaptivity.cpp; found 2026-11-25, reported, not fixed here:
-that code is other engineers' work in progress).** In the full run (2000 ticks, so the push is
-slower than in the ctest subset's 1000) a merge that comes while the beam is still being pushed
-or is swinging back adds energy: in `adaptive_push linear double E=1e+06 nu=0.3 dt=0.9x
-refine_above=0.003`, kinetic + elastic goes from 0.056 J to 0.197 J between steps 230 and 240,
-at the body's first merge (45 splits so far), while the driven work grew by 0.007 J; the same beam
-with all its nodes fine, or all coarse (multiresolution.active = finest / coarsest), stays below
-0.08 J and is stable. These are divergences at 0.9x and 1.0x the bound: bugs, listed at the end
-(not as expected, `pliant stability` exits 3). To reproduce one: `pliant stability -v --filter
-"adaptive_push linear double E=1e+06 nu=0.3 dt=0.9x refine_above=0.003"` (0.3 s). Switching off adapt_body's momentum correction (a
-local experiment, not committed) made that cell stable (48 splits, 48 merges) but made
-`refine_above=0.03` diverge at its third merge, so the correction is not the whole cause. What the
-jump is, tick by tick: at step 240 one level-0 node merges back while its region is simulated on
-level 2 (level 1 steps 2 tets, level 2 1136): level 0 goes from 0 to 3 stepped tets, level 1 to 0,
-level 2 to 960 with 25 ghost nodes (9 before), and in that one tick the *elastic* energy goes from
-0.0238 J to 0.130 J (kinetic, time-centred, 0.033 to 0.067 J; stored 0.0332 to 0.0356 J): the
-merge leaves the body strained. The likely reason (not verified further): fine nodes that become
-ghosts of level 0, two levels up, are put where level 0's field is, not where their fine
-neighbours are, and the merge test (the children's detail against the next coarser level) may not
-see that gap when the next level is not simulated there. The ctest subset (1000 ticks, refine_above 0.01, 1.0x) passes; it does not cover
-this.
+**Two bugs these rows found, fixed** (engine/src/multires/adaptivity.cpp, 2026-11-25). (1) A merge
+put the coarse node at the mass-weighted average of the finer displacements around it, which is the
+field at the weighted centroid of the node's hat function, about h/4 inside the body at its surface:
+a pushed beam's elastic energy jumped from 0.024 J to 0.130 J in the tick of its first merge. A
+merge now interpolates the finer field at the node's rest place (exact for any affine field; test
+`Adaptivity.AMergeCarriesATurnedBodyOverWithoutStrainingIt`: a quarter-turned block split and
+merged lands within 1.4e-17 m with no strain, 12 mm off and 1.5 J before). (2) `adapt_body` kept the
+free nodes' linear momentum by adding one uniform velocity to all of them, also when a change moved
+mass onto or off fixed and prescribed nodes, whose supports take momentum legitimately: at the first
+split of stress scene 44 the free nodes next to the clamp came out at 0.55 m/s (0.0008 m/s without
+the correction). The correction now applies only to bodies nothing holds.
 
-An observation for engine/src/multires/adaptivity.cpp (not a failed verdict): `adapt_body` keeps
-the linear momentum of the *free* nodes by adding one uniform velocity to all of them. When a change
-moves mass between free nodes and fixed or prescribed ones, their momentum changes legitimately
-(the supports take it), and the correction then moves the whole body: at the first split of stress
-scene 44 (`pliant stress --scene 44`, 4 splits at the pushed end, step 144), the free nodes it
-activated on the clamped side (x < -0.2 L in the body frame), interpolated from a coarse field at
-rest there, came out at a mean 0.55 m/s; with the correction switched off (a local experiment, not
-committed), at 0.0008 m/s. The energy stays within the budget, so no verdict fails, but it is
-motion from nowhere near a support: the correction should count only the momentum the change moved
-between free nodes.
+**Open (listed at the end as bugs, `pliant stability` exits 3):** with the loosest threshold of
+the rows, refine_above 1 (coarsen_below 0.25 of the peak strain: children may merge while their
+detail is a quarter of the peak strain times the coarse edge), a few cells still exceed their
+energy budget after the first merges while the beam is held pushed; at 0.25 and at the default 0.5
+none does. Two experiments made it worse, not better: measuring the merge detail against the finer
+edge (a stricter merge: 14 cells diverged) and merging only where the children strain less than half
+the peak (12 cells, with fewer merges). So the snap of a merged region is not the whole cause. What
+is known: the same displacement stores more energy on the coarser level's tets (they lock in
+bending: the cantilever's level 0 is 72% stiffer in frequency), so a change of level is not
+energy-neutral for a bent body, and these cells run with 2 of 3 levels coupled across interfaces two
+levels apart while held pushed. An energy-consistent merge (or a check of each change's energy) is
+the fix to try next. The ctest subset runs the default threshold. To reproduce: `pliant stability -v --filter "adaptive_push linear double E=1e+06
+nu=0.3 dt=0.9x refine_above=1"`.
 
 )";
   int split_and_merged = 0, diverged = 0, bad = 0, ran = 0;

@@ -158,7 +158,9 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
   b.multiresolution.ratio = 2;
   b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
   AdaptDef& ad = b.multiresolution.active.adapt;
-  ad.refine_above = r.log_uniform(0.003, 0.05);
+  // Relative thresholds (AdaptDef::Measure::relative, fractions of the body's peak strain): from
+  // refining nearly everything (0.15) to refining only where the strain varies most (2).
+  ad.refine_above = r.log_uniform(0.15, 2.0);
   ad.coarsen_below = ad.refine_above * r.uniform(0.05, 0.6);
   ad.min_dwell = r.uniform(0, 0.15);                          // fraction of the run, for now
   ad.check_every = r.chance(0.4) ? 0 : r.uniform(0.002, 0.05);  // fraction of the run, for now

@@ -464,7 +464,7 @@ TEST(Study, MultiresolutionLevelsAndAdaptiveRunsCostTheirTetUpdates) {
   StudyOptions o;
   o.scene = dir / "bar.json";
   o.sweeps = {R"(bodies[0].multiresolution={"levels":2,"active":0}|{"levels":2,"active":1}|)"
-              R"({"levels":2,"active":"adaptive","adapt":{"refine_above":0.5,"coarsen_below":0.1}})"};
+              R"({"levels":2,"active":"adaptive","adapt":{"measure":"absolute","refine_above":0.5,"coarsen_below":0.1}})"};
   o.measure = R"({"kind": "probe_mean", "probe": "tip", "axis": "z"})";
   o.reference = "finest";
   o.cost = parse_cost("tet-updates");
@@ -481,7 +481,7 @@ TEST(Study, MultiresolutionLevelsAndAdaptiveRunsCostTheirTetUpdates) {
   // Level 0 (4x1x1 cells, 24 tets) steps at a period 4 times level 1's (96 tets): 1/16.
   EXPECT_NEAR(s.runs[0].tet_updates / s.runs[1].tet_updates, 1.0 / 16, 1e-12);
   EXPECT_EQ(s.finest, 1);  // ties in tet-steps go to the most tet updates
-  // Adaptive with high thresholds stays on level 0 (a 2 cm sag jumps far less than 0.5).
+  // Adaptive with a high absolute threshold stays on level 0 (a 2 cm sag jumps far less than 0.5).
   EXPECT_EQ(s.runs[2].tet_updates, s.runs[0].tet_updates);
   EXPECT_NE(s.runs[0].values[0], s.runs[1].values[0]);
   EXPECT_THAT(read(dir / "study" / "study.csv"), HasSubstr(",tet_steps,tet_updates,"));
