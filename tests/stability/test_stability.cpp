@@ -145,6 +145,7 @@ TEST(EnergyMonitor, GhostsAndSplitsAreNotDrivenWork) {
   b.material.damping.mass = 20;
   b.multiresolution.levels = 2;
   b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  b.multiresolution.active.adapt.measure = AdaptDef::Measure::absolute;  // a 1% jump: a partial split
   b.multiresolution.active.adapt.refine_above = 0.01;
   b.multiresolution.active.adapt.coarsen_below = 0;  // no merge but the forced one
   w.add_body(b);
