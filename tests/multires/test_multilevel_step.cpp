@@ -191,9 +191,9 @@ TEST(MultilevelStep, FreeBodyConservesMomentum) {
     const auto f = momentum_change<float>(model);
     std::printf("%s: relative change over 10^4 steps: linear %.2g, angular %.2g (double); %.2g, %.2g (float)\n",
                 to_string(model), d[0], d[1], f[0], f[1]);
-    // The issue asks 1e-9. Measured: double 8e-16 (linear), 2.6e-15 (angular); float 4.8e-7, 3.3e-6
+    // The issue asks 1e-9. Measured: double 1.9e-15 (linear), 3.2e-15 (angular); float 4.8e-7, 3.3e-6
     // (the rounding of 10^4 steps of float sums).
-    EXPECT_LT(d[0], 4e-15);
+    EXPECT_LT(d[0], 8e-15);
     EXPECT_LT(d[1], 1.3e-14);
     EXPECT_LT(f[0], 2.4e-6);
     EXPECT_LT(f[1], 1.65e-5);
