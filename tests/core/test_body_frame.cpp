@@ -266,6 +266,8 @@ TEST(BodyFrame, AFloatBodyOneKilometreAwayFollowsTheSameTrajectoryAsAtTheOrigin)
   // differences of the order of float_error instead).
   EXPECT_GT(float_error, 0.0);
   EXPECT_LE(far_error, 1.5 * float_error);
+  // The promise against the float error (orderings: the audit's 2.5e-7 is the bit-for-bit
+  // agreement, which the absolute bound below checks).
   EXPECT_LE(moved_error, 2 * float_error);
   EXPECT_LE(relative_error, 2 * float_error);
   EXPECT_LT(relative_error, 5e-13);
@@ -315,10 +317,11 @@ TEST(BodyFrame, EverythingAUserReadsIsInTheWorldFrame) {
     for (int k = 0; k < 3; ++k) EXPECT_EQ(snap.points[3 * n + k], x[k]);
     if (mesh.points[3 * n] < kFar[0] + kLength - 1e-6) continue;
     ++driven;  // after the last keyframe: rest + offset, to float round-off in the body frame
-    // measured 5.4e-10 m (float positions)
+    // measured 5.4e-10 m along x (float positions); 3.7e-10 m along y and z (the float rounding of
+    // the rest coordinates, which the push along x leaves alone)
     EXPECT_NEAR(x[0], mesh.points[3 * n] - 1e-3, 5e-9);
-    EXPECT_NEAR(x[1], mesh.points[3 * n + 1], 5e-9);
-    EXPECT_NEAR(x[2], mesh.points[3 * n + 2], 5e-9);
+    EXPECT_NEAR(x[1], mesh.points[3 * n + 1], 2e-9);
+    EXPECT_NEAR(x[2], mesh.points[3 * n + 2], 2e-9);
   }
   EXPECT_EQ(driven, 9u);  // the 3 x 3 nodes of the x-max face
   // The probe sits on a node: it follows that node in the world frame.

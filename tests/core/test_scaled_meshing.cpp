@@ -63,10 +63,10 @@ TEST(ScaledMeshing, TheSameSurfaceInMillimetresAndInMetresGivesTheSameMesh) {
   std::printf("box 0.1 x 0.06 x 0.04 m at cell_size %g m: %zu tets, %zu nodes from metres; %zu tets, %zu nodes from "
               "millimetres\n", cell, in_m.tet_count(), in_m.node_count(), in_mm.tet_count(), in_mm.node_count());
   ASSERT_GT(in_m.tet_count(), 100u);
-  // measured 5.4e-20 m^3
-  EXPECT_NEAR(volume_of(in_m), 0.1 * 0.06 * 0.04, 2e-18);
+  // measured 5.4e-20 m^3 (2 ulp of the volume, summed over 1184 tets)
+  EXPECT_NEAR(volume_of(in_m), 0.1 * 0.06 * 0.04, 5e-19);
   // measured 1.9e-19 m^3 (the box is meshed exactly)
-  EXPECT_NEAR(volume_of(in_mm), 0.1 * 0.06 * 0.04, 2e-18);
+  EXPECT_NEAR(volume_of(in_mm), 0.1 * 0.06 * 0.04, 1e-18);
   // The same resolution: CGAL's refinement is scale-invariant up to floating point, so the two
   // meshes differ in a few tets (measured: 1184 and 1198 tets, +1.2%; mean edge lengths -0.8%).
   // With cell_size applied before scale, the mm mesh was refused (about 1e12 tets). Tolerances:

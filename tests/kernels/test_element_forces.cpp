@@ -141,7 +141,10 @@ void check_half_turns() {
                             {1, 1, 0}, {0.3, -0.8, 0.5}, {-0.2, 0.1, 0.97}, {0.6, 0.01, -0.02}};
   const bool single = sizeof(T) == 4;
   const double ref = reference_force<T>(Model::corotational);
-  const double force_tol = single ? 2e-5 : 1e-9, quat_tol = single ? 1e-6 : 1e-12;
+  // Measured (float / double) over the 8 axes: force 4.7e-6 / 9.1e-15 of the reference force,
+  // |1 - |q.u|| 4.4e-8 / 2.2e-16, |q_w| 5.0e-8 / 2.5e-16, energy 4.0e-13 / 2.1e-30 of mu V,
+  // stress 1.4e-6 / 3.2e-15 of mu.
+  const double force_tol = single ? 2e-5 : 5e-14, quat_tol = single ? 2e-7 : 1e-15, w_tol = single ? 2.5e-7 : 1.5e-15;
   for (const auto& axis : axes) {
     const double n = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
     const double u[3] = {axis[0] / n, axis[1] / n, axis[2] / n};
@@ -154,17 +157,17 @@ void check_half_turns() {
     }
     // Scalar code first (the reports refine a copy of the stored identity).
     const double scale = double(t.c.mu) * double(t.volume[0]);  // energy of a unit strain
-    EXPECT_LT(std::fabs(t.energy()), (single ? 1e-10 : 1e-20) * scale) << "axis " << u[0] << " " << u[1] << " " << u[2];
+    EXPECT_LT(std::fabs(t.energy()), (single ? 2e-12 : 1e-29) * scale) << "axis " << u[0] << " " << u[1] << " " << u[2];
     double sigma[9];
     element_cauchy_stress(t.c, Range{0, 1}, 2, sigma);
-    for (double s : sigma) EXPECT_LT(std::fabs(s), (single ? 2e-5 : 1e-9) * double(t.c.mu)) << "axis " << u[0];
+    for (double s : sigma) EXPECT_LT(std::fabs(s), (single ? 7e-6 : 2e-14) * double(t.c.mu)) << "axis " << u[0];
     EXPECT_EQ(double(t.rot[0][0]), 1.0);  // the reports did not touch the warm start
     // The force pass (vector lanes): zero force, and the stored rotation is the half turn (0, u).
     t.forces();
     EXPECT_LT(t.max_force(), force_tol * ref) << "axis " << u[0] << " " << u[1] << " " << u[2];
     const double dot = double(t.rot[1][0]) * u[0] + double(t.rot[2][0]) * u[1] + double(t.rot[3][0]) * u[2];
     EXPECT_NEAR(std::fabs(dot), 1.0, quat_tol) << "axis " << u[0] << " " << u[1] << " " << u[2];
-    EXPECT_NEAR(double(t.rot[0][0]), 0.0, std::sqrt(quat_tol));
+    EXPECT_NEAR(double(t.rot[0][0]), 0.0, w_tol);
   }
 }
 
@@ -289,7 +292,7 @@ TEST(ElementForces, FloatAgreesWithDouble) {
     f.forces();
     for (int a = 0; a < 4; ++a)
       // measured 2.0e-6 of the largest force
-      for (int k = 0; k < 3; ++k) EXPECT_NEAR(f.force(a, k), d.force(a, k), 2e-5 * d.max_force());
+      for (int k = 0; k < 3; ++k) EXPECT_NEAR(f.force(a, k), d.force(a, k), 1e-5 * d.max_force());
   }
 }
 
@@ -396,7 +399,7 @@ void check_viscous_stress_at_rest() {
   // At rest (x = X: F = I, R = I) every continuum model gives D(sym G). lambda = mu = 0 so that
   // the force is the viscous one alone.
   const double phi = 7.0, psi = 3.0;  // Pa s
-  const double tol = sizeof(T) == 4 ? 2e-6 : 1e-13;
+  const double tol = sizeof(T) == 4 ? 1e-6 : 1e-15;  // measured 2.0e-7 (float), 2.2e-16 (double)
   const auto want = corner_forces_of(viscous(kVelocityGradient, phi, psi));
   double scale = 0;
   for (const auto& f : want)
@@ -422,7 +425,8 @@ void check_viscous_stress_at_rest() {
       }
     const double tr = kVelocityGradient[0][0] + kVelocityGradient[1][1] + kVelocityGradient[2][2];
     const double want_power = -double(t.volume[0]) * (phi * tr * tr + 2 * psi * ee);  // W
-    EXPECT_NEAR(power, want_power, (sizeof(T) == 4 ? 1e-5 : 1e-12) * std::fabs(want_power)) << "model " << int(m);
+    // measured 1.2e-7 (float), 2.5e-16 (double) of the power
+    EXPECT_NEAR(power, want_power, (sizeof(T) == 4 ? 6e-7 : 1.5e-15) * std::fabs(want_power)) << "model " << int(m);
   }
 }
 
@@ -451,11 +455,12 @@ TEST(ViscousStress, BulkAndShearCoefficientsActSeparately) {
       const auto want = corner_forces_of(P);
       for (int a = 0; a < 4; ++a)
         for (int k = 0; k < 3; ++k)
-          EXPECT_NEAR(t.force(a, k), want[a][k], 1e-15 + 1e-13 * std::fabs(want[a][k]))
+          // measured 3.5e-18 N on forces up to 0.014 N (1.1e-15 of the force), 9.3e-20 N where 0 is wanted
+          EXPECT_NEAR(t.force(a, k), want[a][k], 2e-17 + 4e-16 * std::fabs(want[a][k]))
               << "phi " << phi << " psi " << psi << (is_shear ? " shear" : " dilation");
       if (is_shear && psi == 0) {
         // measured 9.3e-20 N
-        EXPECT_LT(t.max_force(), 1e-18);  // bulk viscosity ignores shear
+        EXPECT_LT(t.max_force(), 5e-19);  // bulk viscosity ignores shear
       }
     }
   }
@@ -535,7 +540,7 @@ TEST(ViscousStress, RigidSpinIsNotDampedByStvkAndCorotationalButIsByLinear) {
     if (m == Model::linear) {
       for (int a = 0; a < 4; ++a)
         // measured 2.9e-16 (524: 6.4e-16)
-        for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.force(a, k), linear_want[a][k], 3e-15 * scale);
+        for (int k = 0; k < 3; ++k) EXPECT_NEAR(t.force(a, k), linear_want[a][k], 1.5e-15 * scale);
     } else {
       // measured see above
       EXPECT_LT(t.max_force(), 5e-15 * scale) << "model " << int(m);

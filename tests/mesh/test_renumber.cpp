@@ -92,7 +92,7 @@ TEST(Renumber, RestoresLocalityOfAScrambledMesh) {
   EXPECT_GT(span_random, 0.2 * double(m.node_count()));
   EXPECT_LT(span, 1.2 * mean_index_span(grid));
   EXPECT_LT(span, 0.15 * span_random);
-  EXPECT_LT(jump, 0.05 * jump_random);
+  EXPECT_LT(jump, 0.003 * jump_random);  // measured 5.4e-4 x jump_random
 }
 
 TEST(Renumber, NodeListsMappedThroughTheMapSelectTheSameMaterialPoints) {

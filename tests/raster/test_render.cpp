@@ -192,7 +192,7 @@ TEST(Render, AzimuthAndElevationChooseTheViewDirection) {
   o.azimuth_deg = 90;
   o.elevation_deg.reset();  // the default elevation, 25 degrees
   const Vec3d d = eye_direction(resolve_view(f, o));
-  EXPECT_NEAR(d[2], std::sin(25 * std::acos(-1.0) / 180), 1e-9);
+  EXPECT_NEAR(d[2], std::sin(25 * std::acos(-1.0) / 180), 1e-15);  // measured 0
   // measured 5.5e-17
   EXPECT_NEAR(d[1], 0, 5e-16);
   o.azimuth_deg.reset();
@@ -201,7 +201,7 @@ TEST(Render, AzimuthAndElevationChooseTheViewDirection) {
   o.camera.reset();
   o.up = {0, 1, 0};
   o.elevation_deg = 60;
-  EXPECT_NEAR(eye_direction(resolve_view(f, o))[1], std::sin(60 * std::acos(-1.0) / 180), 1e-9);
+  EXPECT_NEAR(eye_direction(resolve_view(f, o))[1], std::sin(60 * std::acos(-1.0) / 180), 1e-15);  // measured 0
 }
 
 TEST(Render, TheScaleBarIsTrueAtTheTargetsDepth) {
@@ -231,7 +231,7 @@ TEST(Render, TheScaleBarIsTrueAtTheTargetsDepth) {
   const double bar_m = (x1 - x0 + 1) / beam_px;  // the bar's length in metres, as the beam measures it
   // A round length (here 10 cm: 1, 2 or 5 x 10^k m, at most a sixth of the width). Measured: 0.0997 m
   // (the silhouette's edge pixels).
-  EXPECT_NEAR(bar_m, 0.1, 0.003) << "plate " << beam_px << " px, bar " << x1 - x0 + 1 << " px";
+  EXPECT_NEAR(bar_m, 0.1, 0.001) << "plate " << beam_px << " px, bar " << x1 - x0 + 1 << " px";
   // Without the bar, nothing dark there.
   o.scale_bar = false;
   const Image plain = renderer().render(f, o, &mask);
@@ -380,6 +380,7 @@ TEST(Render, MatchesTheReferenceImage) {
   ASSERT_EQ(want.height(), img.height());
   // Tolerances meant to survive llvmpipe's rasterisation and multisampling changes, not bytes.
   const Difference d = compare(img, mask, want, want_mask);
+  // (Measured 0 against a reference drawn on this machine: the margin is for other rasterisers.)
   EXPECT_LT(d.mad, 0.03) << "mean absolute difference";
   EXPECT_GT(d.iou, 0.95) << "silhouette overlap";
 }
@@ -741,6 +742,8 @@ TEST(StoredState, SpecialFilesNamedPvdBesideAFrameAreSkipped) {
   const StoredFields f = read_stored_fields(frame, read_tet_mesh(frame));
   EXPECT_FALSE(fifo.opened());
   ASSERT_TRUE(f.time.has_value());
+  // The step at or after 0.01 s: measured 5.7e-4 s after (9.1e-5 s in an earlier build of the same
+  // source; why is not understood, so the tolerance stays at 1e-3 s, within 2x of the larger).
   EXPECT_NEAR(*f.time, 0.01, 1e-3);
 }
 
@@ -759,7 +762,7 @@ TEST(StoredState, RunFramesCarryDisplacementVonMisesAndTime) {
   EXPECT_NEAR(*f.time, 0.02, 1e-3);  // from series.pvd, one folder up: the step at or after 0.02 s
   EXPECT_TRUE(f.note.empty()) << f.note;
   const double t1 = series_time(opt.out_dir / "vtu" / "b_00001.vtu").value_or(-1);
-  EXPECT_NEAR(t1, 0.01, 1e-3);
+  EXPECT_NEAR(t1, 0.01, 1e-3);  // measured 5.7e-4 s (as above)
   EXPECT_LT(t1, *f.time);
   EXPECT_EQ(series_time(first), 0.0);
   EXPECT_FALSE(series_time(scratch("stored_elsewhere") / "b_00001.vtu").has_value());
@@ -770,7 +773,7 @@ TEST(StoredState, RunFramesCarryDisplacementVonMisesAndTime) {
   ASSERT_EQ(stored.bodies[0].values.size(), with_rest.bodies[0].values.size());
   EXPECT_GT(max_value(stored), 1e-4);  // the driven end moved 1 cm
   for (std::size_t i = 0; i < stored.bodies[0].values.size(); ++i)
-    EXPECT_NEAR(stored.bodies[0].values[i], with_rest.bodies[0].values[i], 1e-6 * max_value(stored));
+    EXPECT_NEAR(stored.bodies[0].values[i], with_rest.bodies[0].values[i], 1e-15 * max_value(stored));  // measured 0
   EXPECT_TRUE(stored.has_time);
   EXPECT_EQ(stored.time, *f.time);
   EXPECT_FALSE(with_rest.has_time);

@@ -123,7 +123,7 @@ TEST(EnergyMonitor, StagnantFloatPositionsAreNotAnEnergyGain) {
   EXPECT_TRUE(m.finish()) << m.why();
   const Energies e = w.energies();
   EXPECT_GT(e.kinetic, 1e-8);                        // 1/2 M (g t)^2 = 1.9e-8 J, t = 1e-4 s
-  EXPECT_LT(std::abs(e.potential), 0.1 * e.kinetic);  // the positions barely moved
+  EXPECT_LT(std::abs(e.potential), 1e-12 * e.kinetic);  // a uniform fall strains nothing (measured 0)
 }
 
 TEST(EnergyMonitor, GhostsAndSplitsAreNotDrivenWork) {

@@ -209,7 +209,7 @@ TEST(ClosestPoints, SegmentTriangleAgreesWithHullDistanceOnRandomShapes) {
     const double ref_p = hull_distance2({p}, {a, b, c});
     worst = std::max(worst, std::abs(std::sqrt(mine_p) - std::sqrt(ref_p)));
   }
-  EXPECT_LT(worst, 1e-12);  // both exact: they differ by rounding only
+  EXPECT_LT(worst, 5e-15);  // both exact: they differ by rounding only (measured 1.1e-15)
   std::printf("largest difference of distances over 40000 shapes: %.3g\n", worst);
 }
 
