@@ -16,6 +16,21 @@ void sort_unique(std::vector<std::int32_t>& v) {
   v.erase(std::unique(v.begin(), v.end()), v.end());
 }
 
+// sort_unique for long lists of few distinct nodes (the corners of many tets): duplicates dropped
+// with the level's marks first (cleared again), then the distinct ones sorted.
+void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>& mark) {
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    auto& m = mark[std::size_t(v[i])];
+    if (m) continue;
+    m = 1;
+    v[out++] = v[i];
+  }
+  v.resize(out);
+  for (const std::int32_t x : v) mark[std::size_t(x)] = 0;
+  std::sort(v.begin(), v.end());
+}
+
 bool holds(const std::vector<std::int32_t>& sorted, std::int32_t x) { return std::binary_search(sorted.begin(), sorted.end(), x); }
 
 // The same expression as apply_activation's, so that the masses are the same bits.
@@ -151,9 +166,11 @@ PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
   PatchState ps;
   ps.quarter_mass.resize(n);
   ps.own_mass.resize(n);
+  ps.mark.resize(n);
   for (std::size_t l = 0; l < n; ++l) {
     const TetMesh& m = h.meshes[l];
     Level<T>& L = body.levels[l];
+    ps.mark[l].assign(m.node_count(), 0);
     auto& q = ps.quarter_mass[l];
     q.resize(m.tet_count());
     for (std::size_t t = 0; t < m.tet_count(); ++t) q[t] = def.material.density * rest_volume(m, t) / 4;
@@ -216,7 +233,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
     for (const auto* list : {&on[l], &off[l]})
       for (auto t : *list)
         for (int a = 0; a < 4; ++a) own_changed[l].push_back(L.tet[a][std::size_t(t)]);
-    sort_unique(own_changed[l]);
+    sort_unique_marked(own_changed[l], ps.mark[l]);
     stats.tets += on[l].size() + off[l].size();
   }
   auto& touched = cs.mass_changed;
@@ -236,7 +253,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
           for (const GhostSource& s : as.sources(int(l), v)) touched[std::size_t(s.level)].push_back(s.node);
       }
   }
-  for (auto& t : touched) sort_unique(t);
+  for (std::size_t l = 0; l < n; ++l) sort_unique_marked(touched[l], ps.mark[l]);
 
   // 2. Before the change: the states of the changed nodes, the momentum and mass of the touched ones.
   double mass_before = 0;
@@ -296,7 +313,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
   }
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
-    sort_unique(receivers[l]);
+    sort_unique_marked(receivers[l], ps.mark[l]);
     if (receivers[l].empty()) continue;
     auto& fr = fresh[l];
     for (const std::int32_t r : receivers[l]) {  // the entries of unchanged ghosts stay

@@ -43,6 +43,7 @@ struct PatchState {
   // Per region, per level: the nodes it selects at rest whatever their role (sorted).
   std::vector<std::vector<std::vector<std::int32_t>>> fixed, prescribed, loads;
   std::vector<std::size_t> fixed_count, prescribed_count, load_count;  // per region: active nodes selected, all levels
+  std::vector<std::vector<std::uint8_t>> mark;  // per level, per node: 0 (set and cleared within a call, to dedupe)
   // Buffers the CSRs are spliced into (then swapped with the level's).
   AlignedVector<std::int32_t> keys, offsets, col_a, col_b;
   AlignedVector<double> col_w;
