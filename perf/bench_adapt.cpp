@@ -60,7 +60,7 @@ void run(benchmark::State& state, const BodyDef& def) {
   b.multiresolution.active.adapt.coarsen_below = 0;
   w.add_body(b);
   int level = 1;
-  std::int64_t nodes = 0;
+  std::int64_t nodes = 0, touched = 0;
   for (auto _ : state) {
     const World::AdaptStats before = w.adapt_stats(0);
     w.force_level(0, level);
@@ -68,10 +68,12 @@ void run(benchmark::State& state, const BodyDef& def) {
     const World::AdaptStats after = w.adapt_stats(0);
     state.SetIterationTime(after.apply_seconds - before.apply_seconds);
     nodes += (after.splits - before.splits) + (after.merges - before.merges);
+    touched += after.touched_nodes - before.touched_nodes;
     level = 1 - level;
   }
   state.counters["fine_tets"] = double(w.tet_count(0, 1));
   state.counters["nodes_per_change"] = double(nodes) / double(state.iterations());
+  state.counters["nodes_touched"] = double(touched) / double(state.iterations());  // by the apply (PatchStats)
 }
 
 // adapt_body's part 3 before apply_changes: the whole snapshot applied, and the loops over every
