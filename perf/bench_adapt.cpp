@@ -176,6 +176,7 @@ void run_local(benchmark::State& state, const BodyDef& def, bool in_place) {
   state.counters["nodes_changed"] = double(changed) / (2 * it);
   state.counters["nodes_touched"] = double(touched) / (2 * it);
   state.counters["body_nodes"] = double(body_nodes);
+  state.counters["renormalised"] = double(ps.renormalisations) / (2 * it);  // share of the changes (apply_changes.hpp)
 }
 
 void BM_AdaptChangeBar100k(benchmark::State& state) { run(state, bar100k()); }

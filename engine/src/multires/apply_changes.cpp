@@ -2,6 +2,7 @@
 #include "apply_changes.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <fmt/format.h>
 
 #include "../core/simulation.hpp"
@@ -174,6 +175,11 @@ PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
     auto& q = ps.quarter_mass[l];
     q.resize(m.tet_count());
     for (std::size_t t = 0; t < m.tet_count(); ++t) q[t] = def.material.density * rest_volume(m, t) / 4;
+    if (l + 1 == n) {  // the finest volume, summed as the full apply sums it
+      ps.volume = 0;
+      for (std::size_t t = 0; t < m.tet_count(); ++t) ps.volume += rest_volume(m, t);
+    }
+    ps.renormalise_after += m.node_count();
     std::vector<std::uint8_t> on(m.tet_count(), 0);
     for (const Range& r : L.stepped_runs)
       for (std::size_t t = r.begin; t < r.end; ++t) on[t] = 1;
@@ -187,6 +193,21 @@ PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
       }
     }
   }
+  // Raw masses (before the factor): own, plus the ghosts' own moved to their sources.
+  ps.raw_mass = ps.own_mass;
+  for (std::size_t l = 0; l < n; ++l) {
+    const Level<T>& L = body.levels[l];
+    for (std::size_t g = 0; g < L.ghosts.size(); ++g) {
+      const auto node = std::size_t(L.ghosts[g]);
+      for (auto e = L.ghost_offsets[g]; e < L.ghost_offsets[g + 1]; ++e)
+        ps.raw_mass[std::size_t(L.ghost_source_level[std::size_t(e)])][std::size_t(L.ghost_source_node[std::size_t(e)])] +=
+            L.ghost_weight[std::size_t(e)] * ps.own_mass[l][node];
+      ps.raw_mass[l][node] = 0;
+    }
+  }
+  ps.raw_total = 0;
+  for (const auto& level : ps.raw_mass)
+    for (const double m : level) ps.raw_total += m;
   auto select = [&](const RegionDef& r, const std::string& what, std::vector<std::vector<std::int32_t>>& per_level) {
     std::size_t count = 0;
     per_level.resize(n);
@@ -437,34 +458,73 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
 
   // 8. Masses of the touched nodes: own plus their receiver entries' share of the ghosts' own (in
   // the order of the entries, as the full apply adds them), scaled so that together they weigh
-  // what they weighed (the body's total stays rho x V: apply_changes.hpp).
-  std::vector<std::vector<double>> raw(n);
-  double mass_after = 0;
-  for (std::size_t l = 0; l < n; ++l) {
+  // what they weighed (the body's total stays rho x V), unless the change is renormalised
+  // (apply_changes.hpp): then every node's, scaled as the full apply does.
+  auto raw_of = [&](std::size_t l, std::int32_t v) {
+    if (as.role(int(l), v) != NodeRole::active) return 0.0;
     const Level<T>& L = body.levels[l];
+    double m = ps.own_mass[l][std::size_t(v)];
+    const auto it = std::lower_bound(L.receivers.begin(), L.receivers.end(), v);
+    if (it != L.receivers.end() && *it == v) {
+      const auto i = std::size_t(it - L.receivers.begin());
+      for (auto e = L.receive_offsets[i]; e < L.receive_offsets[i + 1]; ++e)
+        m += L.receive_weight[std::size_t(e)] *
+             ps.own_mass[std::size_t(L.receive_ghost_level[std::size_t(e)])][std::size_t(L.receive_ghost_node[std::size_t(e)])];
+    }
+    return m;
+  };
+  std::vector<std::vector<double>> raw(n);
+  double mass_after = 0, raw_before = 0;
+  std::size_t count = 0;
+  for (std::size_t l = 0; l < n; ++l) {
     raw[l].reserve(touched[l].size());
     for (const std::int32_t v : touched[l]) {
-      double m = 0;
-      if (as.role(int(l), v) == NodeRole::active) {
-        m = ps.own_mass[l][std::size_t(v)];
-        const auto it = std::lower_bound(L.receivers.begin(), L.receivers.end(), v);
-        if (it != L.receivers.end() && *it == v) {
-          const auto i = std::size_t(it - L.receivers.begin());
-          for (auto e = L.receive_offsets[i]; e < L.receive_offsets[i + 1]; ++e)
-            m += L.receive_weight[std::size_t(e)] *
-                 ps.own_mass[std::size_t(L.receive_ghost_level[std::size_t(e)])][std::size_t(L.receive_ghost_node[std::size_t(e)])];
-        }
-      }
-      raw[l].push_back(m);
-      mass_after += m;
+      raw[l].push_back(raw_of(l, v));
+      mass_after += raw[l].back();
+      raw_before += ps.raw_mass[l][std::size_t(v)];
     }
+    count += touched[l].size();
   }
-  const double factor = mass_after > 0 && mass_before > 0 ? mass_before / mass_after : 1.0;
+  const double density = def.material.density;
+  const double local = mass_after > 0 && mass_before > 0 ? mass_before / mass_after : 1.0;
+  const double raw_total = ps.raw_total - raw_before + mass_after;  // every node's, kept as it changes
+  const double global = raw_total > 0 ? density * ps.volume / raw_total : 1.0;  // the full apply's factor
+  double factor = local;
+  if (ps.touched_since + count >= ps.renormalise_after || std::abs(local / global - 1) > ps.factor_tolerance) {
+    // Every node: the momentum of those not touched yet (their mass and velocity still as before).
+    for (std::size_t l = 0; l < n; ++l) {
+      const Level<T>& L = body.levels[l];
+      for (const std::int32_t v : touched[l]) ps.mark[l][std::size_t(v)] = 1;
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        if (!ps.mark[l][i] && L.state[i] == kNodeFree)
+          for (int k = 0; k < 3; ++k) cs.p_before[k] += double(L.mass[i]) * double(L.v[k][i]);
+      for (const std::int32_t v : touched[l]) ps.mark[l][std::size_t(v)] = 0;
+    }
+    mass_after = 0;
+    for (std::size_t l = 0; l < n; ++l) {
+      touched[l].resize(body.levels[l].node_count);
+      raw[l].resize(touched[l].size());
+      for (std::size_t i = 0; i < touched[l].size(); ++i) {
+        touched[l][i] = std::int32_t(i);
+        raw[l][i] = raw_of(l, std::int32_t(i));
+        mass_after += raw[l][i];
+      }
+      stats.nodes += touched[l].size();
+    }
+    factor = mass_after > 0 ? density * ps.volume / mass_after : 1.0;
+    ps.raw_total = mass_after;
+    ps.touched_since = 0;
+    ++ps.renormalisations;
+  } else {
+    ps.raw_total = raw_total;
+    ps.touched_since += count;
+  }
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
     for (std::size_t k = 0; k < touched[l].size(); ++k) {
       const auto i = std::size_t(touched[l][k]);
       const double m = raw[l][k] * factor;
+      ps.raw_mass[l][i] = raw[l][k];
       L.mass[i] = T(m);
       L.inv_mass[i] = L.state[i] == kNodeFree ? T(1.0 / m) : T(0);
     }
