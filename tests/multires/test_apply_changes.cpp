@@ -1,10 +1,18 @@
-// Applying a change of an adaptive body in place (engine/src/multires/apply_changes.*): after a
-// sequence of random splits and merges, the patched level arrays equal what the full
-// apply_activation gives from the activation's snapshot, and the work of one change is local.
+// Applying a change of an adaptive body in place (engine/src/multires/apply_changes.*): after
+// every one of a sequence of random splits and merges, the patched level arrays equal what the full
+// apply_activation gives from the activation's snapshot (on a copy of the body): stepped runs,
+// states, ghost and receiver CSRs, impulse sizes, loads and prescribed nodes compared exactly,
+// masses and inverse masses as the largest relative difference (rounding for nested levels; the
+// slivers' share for non-nested ones, whose mass policy differs: apply_changes.hpp), the total
+// against rho V; the patch's own masses and region counts against those made afresh. Along the way:
+// the changes update() lists are exactly the tets whose state changed, the incremental activation
+// equals one made from scratch with the same targets, and momentum is kept (every node moving).
+// And the work of one change is local: the same on a bar twice as long.
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdio>
+#include <array>
 #include <random>
 
 #include "../../engine/src/core/simulation.hpp"
@@ -123,13 +131,31 @@ double total_mass(const SimBody<double>& b) {
 
 // Random targets on random nodes of every level (splits, merges, and nodes split two levels at
 // once), applied in place, against the full apply after every change.
+double worst_momentum = 0;  // relative, over the random changes of the last random_changes()
+
 double random_changes(const BodyDef& def, int changes, double& worst_total, double& worst_sliver,
                       std::int64_t* renormalisations = nullptr) {
   Adaptive a(def);
+  worst_momentum = 0;
   const double expected = total_mass(a.body);  // rho x V since the build
   std::mt19937 rng(1234);
   const int n = int(a.h.levels());
   double worst = 0;
+  // Every node moving (inactive ones too: those that become free bring a velocity the correction
+  // must take up, as carried-over ones do), so that the momentum kept checks the touched set.
+  std::uniform_real_distribution<double> velocity(-1, 1);
+  for (auto& L : a.body.levels)
+    for (int k = 0; k < 3; ++k)
+      for (std::size_t i = 0; i < L.node_count; ++i) L.v[k][i] = 0.3 + velocity(rng);
+  auto momentum = [&] {
+    std::array<double, 3> p{0, 0, 0};
+    for (const auto& L : a.body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        if (L.state[i] == kNodeFree)
+          for (int k = 0; k < 3; ++k) p[std::size_t(k)] += L.mass[i] * L.v[k][i];
+    return p;
+  };
+  const std::array<double, 3> p0 = momentum();
   worst_total = std::abs(expected / total_mass(a.full(0)) - 1);
   for (int c = 0; c < changes; ++c) {
     const double t = 0.01 * c;
@@ -141,8 +167,36 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
       const unsigned pick = rng() % 8;
       a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : n - 1);
     }
+    std::vector<std::vector<std::uint8_t>> before(std::size_t(n), std::vector<std::uint8_t>{});
+    for (int l = 0; l < n; ++l) before[std::size_t(l)] = a.as->stepped_mask(l);
     const ActivationState::Changes ch = a.as->update();
-    apply_changes(a.body, a.ps, *a.as, ch, t);
+    // The changes drive the apply: they must be exactly the tets whose stepped state changed.
+    for (int l = 0; l < n; ++l) {
+      std::vector<std::int32_t> on, off, listed_on = ch.tets_on[std::size_t(l)], listed_off = ch.tets_off[std::size_t(l)];
+      for (std::size_t e = 0; e < before[std::size_t(l)].size(); ++e)
+        if (before[std::size_t(l)][e] != a.as->stepped_mask(l)[e]) (a.as->stepped_mask(l)[e] ? on : off).push_back(std::int32_t(e));
+      std::sort(listed_on.begin(), listed_on.end());
+      std::sort(listed_off.begin(), listed_off.end());
+      EXPECT_EQ(listed_on, on) << "change " << c << ", level " << l;
+      EXPECT_EQ(listed_off, off) << "change " << c << ", level " << l;
+    }
+    if (c % 10 == 9) {  // the incremental activation against one made from scratch with the same targets
+      std::vector<std::vector<int>> targets(std::size_t(n), std::vector<int>{});
+      for (int l = 0; l < n; ++l)
+        for (std::size_t i = 0; i < a.h.meshes[std::size_t(l)].node_count(); ++i)
+          targets[std::size_t(l)].push_back(a.as->target(l, std::int32_t(i)));
+      const ActivationState fresh(a.h, targets);
+      for (int l = 0; l < n; ++l) {
+        EXPECT_EQ(fresh.stepped_mask(l), a.as->stepped_mask(l)) << "change " << c << ", level " << l;
+        std::size_t roles = 0;
+        for (std::size_t i = 0; i < a.h.meshes[std::size_t(l)].node_count(); ++i)
+          roles += fresh.role(l, std::int32_t(i)) != a.as->role(l, std::int32_t(i));
+        EXPECT_EQ(roles, 0u) << "change " << c << ", level " << l;
+      }
+    }
+    keep_momentum(a.body, apply_changes(a.body, a.ps, *a.as, ch, t));
+    const std::array<double, 3> p = momentum();
+    for (int k = 0; k < 3; ++k) worst_momentum = std::max(worst_momentum, std::abs(p[std::size_t(k)] - p0[std::size_t(k)]) / std::abs(p0[0]));
     worst = std::max(worst, compare(a.body, a.full(t), "change " + std::to_string(c)));
     worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
     // Own masses and region counts kept by the patch against those made from the full apply.
@@ -171,8 +225,10 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNested) {
   std::printf("nested, 60 random changes: masses within %.3g of the full apply's, total within %.3g of rho V (stepped "
               "tets' mass within %.3g)\n",
               worst, worst_total, worst_sliver);
-  EXPECT_LT(worst, 1e-14);        // 1.1e-15 measured
-  EXPECT_LT(worst_total, 2e-14);  // 3.6e-15 measured
+  EXPECT_LT(worst, 8e-15);        // 8.9e-16 measured
+  EXPECT_LT(worst_total, 2e-14);  // 2.7e-15 measured
+  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
+  EXPECT_LT(worst_momentum, 3e-14);  // 2.8e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
@@ -192,9 +248,11 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
   std::printf("non-nested, 60 random changes (%lld renormalised): masses within %.3g of the full apply's, total within "
               "%.3g of rho V (stepped tets' mass within %.3g)\n",
               static_cast<long long>(renormalised), worst, worst_total, worst_sliver);
-  EXPECT_GT(worst_sliver, 1e-3);  // 0.0057 measured: the case is not nested (else this test checks nothing more)
-  EXPECT_LT(worst, 0.1);          // 0.0195 measured, 2 of 60 changes renormalised (slivers: 0.57% of the volume)
-  EXPECT_LT(worst_total, 5e-14);  // 1.2e-14 measured
+  EXPECT_GT(worst_sliver, 1e-3);  // 0.0054 measured: the case is not nested (else this test checks nothing more)
+  EXPECT_LT(worst, 0.1);          // 0.020 measured, 6 of 60 changes renormalised (slivers: 0.54% of the volume)
+  EXPECT_LT(worst_total, 1e-13);  // 2.2e-14 measured
+  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
+  EXPECT_LT(worst_momentum, 6e-14);  // 6.0e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {
@@ -217,9 +275,11 @@ TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {
   std::printf("organ, 300 random changes (%lld renormalised): masses within %.3g of the full apply's, total within %.3g "
               "of rho V (stepped tets' mass within %.3g)\n",
               static_cast<long long>(renormalised), worst, worst_total, worst_sliver);
-  EXPECT_GT(worst_sliver, 5e-3);  // 0.020 measured: the case is not nested
-  EXPECT_LT(worst, 0.1);          // 0.027 measured, 44 of 300 changes renormalised
-  EXPECT_LT(worst_total, 1e-14);  // 1.4e-15 measured
+  EXPECT_GT(worst_sliver, 5e-3);  // 0.017 measured: the case is not nested
+  EXPECT_LT(worst, 0.1);          // 0.031 measured, 52 of 300 changes renormalised
+  EXPECT_LT(worst_total, 2e-14);  // 2.4e-15 measured
+  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
+  EXPECT_LT(worst_momentum, 2e-13);  // 2.0e-14 measured (the issue asks for 1e-9)
 #else
   GTEST_SKIP() << "the organ is meshed with CGAL (PLIANT_WITH_CGAL=OFF)";
 #endif

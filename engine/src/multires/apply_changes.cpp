@@ -48,6 +48,11 @@ std::vector<Range>::iterator run_after(std::vector<Range>& runs, std::size_t t) 
   return std::upper_bound(runs.begin(), runs.end(), t, [](std::size_t x, const Range& r) { return x < r.begin; });
 }
 
+bool in_runs(std::vector<Range>& runs, std::size_t t) {
+  const auto next = run_after(runs, t);
+  return next != runs.begin() && std::prev(next)->end > t;
+}
+
 // Tet t starts being stepped: it extends, joins or starts a run (the runs stay maximal, as
 // runs_of would give them).
 void run_on(std::vector<Range>& runs, std::size_t t) {
@@ -290,15 +295,23 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
     stats.nodes += touched[l].size();
   }
 
-  // 3. Stepped tets: the runs around them, and no corner forces left on those turned off.
+  // 3. Stepped tets: the runs around them, and no corner forces left on those turned off. The
+  // runs are what the level steps, the activation's mask what it should: a listed tet whose state
+  // did not change (update() may list one: the report's "what is left") is left as it is.
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
-    for (auto t : on[l]) run_on(L.stepped_runs, std::size_t(t));
-    for (auto t : off[l]) {
-      run_off(L.stepped_runs, std::size_t(t));
-      for (auto& c : L.corner_force) c[std::size_t(t)] = T(0);
-    }
-    L.stepped_count = L.stepped_count + on[l].size() - off[l].size();
+    for (const auto* list : {&on[l], &off[l]})
+      for (auto t : *list) {
+        const bool want = as.stepped(int(l), t), have = in_runs(L.stepped_runs, std::size_t(t));
+        if (want && !have) {
+          run_on(L.stepped_runs, std::size_t(t));
+          ++L.stepped_count;
+        } else if (!want && have) {
+          run_off(L.stepped_runs, std::size_t(t));
+          --L.stepped_count;
+          for (auto& c : L.corner_force) c[std::size_t(t)] = T(0);
+        }
+      }
   }
 
   // 4. Own masses of the corners of those tets, summed in ascending tet order (as the full apply).
