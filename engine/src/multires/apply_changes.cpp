@@ -297,7 +297,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
 
   // 3. Stepped tets: the runs around them, and no corner forces left on those turned off. The
   // runs are what the level steps, the activation's mask what it should: a listed tet whose state
-  // did not change (update() may list one: the report's "what is left") is left as it is.
+  // did not change is left as it is (a guard: update() once listed such a tet, activation.cpp).
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
     for (const auto* list : {&on[l], &off[l]})
