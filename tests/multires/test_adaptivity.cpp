@@ -98,8 +98,8 @@ TEST(Adaptivity, ForcedSplitsAndMergesConserveMassAndMomentumAndPumpNoEnergy) {
               cycles, static_cast<long long>(a.changes), static_cast<long long>(a.splits), static_cast<long long>(a.merges),
               worst_mass, worst_momentum, e0, w.energies().total(), max_energy);
   EXPECT_EQ(a.changes, 200);
-  EXPECT_LT(worst_mass, 1e-13);      // 1.7e-14 measured (the issue asks for exact)
-  EXPECT_LT(worst_momentum, 3e-14);  // 3.4e-15 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_mass, 1e-13);      // 1.9e-14 measured (the issue asks for exact)
+  EXPECT_LT(worst_momentum, 1e-13);  // 5.2e-15 measured (the issue asks for 1e-9)
   EXPECT_LE(max_energy, 1.01 * e0);  // the issue's bound; measured: never above the start. The transfers
                                      // dissipate: the vibration's 0.010 J is gone after 200 changes
 }

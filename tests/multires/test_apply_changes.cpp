@@ -228,7 +228,7 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNested) {
   EXPECT_LT(worst, 8e-15);        // 8.9e-16 measured
   EXPECT_LT(worst_total, 2e-14);  // 2.7e-15 measured
   std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
-  EXPECT_LT(worst_momentum, 3e-14);  // 2.8e-15 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_momentum, 3e-14);  // 3.0e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
@@ -252,7 +252,7 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
   EXPECT_LT(worst, 0.1);          // 0.020 measured, 6 of 60 changes renormalised (slivers: 0.54% of the volume)
   EXPECT_LT(worst_total, 1e-13);  // 2.2e-14 measured
   std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
-  EXPECT_LT(worst_momentum, 6e-14);  // 6.0e-15 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_momentum, 5e-14);  // 5.0e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {
@@ -279,7 +279,7 @@ TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {
   EXPECT_LT(worst, 0.1);          // 0.031 measured, 52 of 300 changes renormalised
   EXPECT_LT(worst_total, 2e-14);  // 2.4e-15 measured
   std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
-  EXPECT_LT(worst_momentum, 2e-13);  // 2.0e-14 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_momentum, 2e-13);  // 2.3e-14 measured (the issue asks for 1e-9)
 #else
   GTEST_SKIP() << "the organ is meshed with CGAL (PLIANT_WITH_CGAL=OFF)";
 #endif

@@ -6,8 +6,7 @@
 // (stepped runs, roles, ghosts, receivers, masses, regions) over the changed nodes and tets only.
 // Nodes that become active take their position and velocity from the field that was simulated
 // there (barycentric, from the neighbouring level); the mass stays exactly rho x volume and the
-// body's linear momentum is kept to rounding (a uniform velocity correction over the free nodes
-// whose mass or velocity changed).
+// body's linear momentum is kept to rounding (a uniform velocity correction over the free nodes).
 #pragma once
 #include <array>
 #include <cstdint>

@@ -547,38 +547,31 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
 
 template <class T>
 std::size_t keep_momentum(SimBody<T>& body, const ChangeSet& cs) {
-  double p[3] = {0, 0, 0}, m_free = 0;
-  std::size_t count = 0;
+  // What the change did to the momentum: only the touched nodes' masses, states and velocities changed.
+  double dp[3] = {cs.p_before[0], cs.p_before[1], cs.p_before[2]};
   for (std::size_t l = 0; l < cs.mass_changed.size(); ++l) {
     const Level<T>& L = body.levels[l];
     for (const std::int32_t v : cs.mass_changed[l]) {
       const auto i = std::size_t(v);
-      if (L.state[i] != kNodeFree) continue;
-      m_free += double(L.mass[i]);
-      for (int k = 0; k < 3; ++k) p[k] += double(L.mass[i]) * double(L.v[k][i]);
-      ++count;
+      if (L.state[i] == kNodeFree)
+        for (int k = 0; k < 3; ++k) dp[k] -= double(L.mass[i]) * double(L.v[k][i]);
     }
   }
-  if (m_free > 0) {
-    for (std::size_t l = 0; l < cs.mass_changed.size(); ++l) {
-      Level<T>& L = body.levels[l];
-      for (const std::int32_t v : cs.mass_changed[l])
-        if (L.state[std::size_t(v)] == kNodeFree)
-          for (int k = 0; k < 3; ++k) L.v[k][std::size_t(v)] = T(double(L.v[k][std::size_t(v)]) + (cs.p_before[k] - p[k]) / m_free);
-    }
-    return count;
-  }
-  // None of them is free any more: what they carried goes to the body's free nodes.
+  // Given back as one rigid velocity shift of every free node (apply_changes.hpp: a shift of the
+  // touched ones only is a velocity jump at their edge, a strain the measure then reads).
+  double m_free = 0;
+  std::size_t count = 0;
   for (const auto& L : body.levels)
     for (std::size_t i = 0; i < L.node_count; ++i)
-      if (L.state[i] == kNodeFree) m_free += double(L.mass[i]);
+      if (L.state[i] == kNodeFree) {
+        m_free += double(L.mass[i]);
+        ++count;
+      }
   if (!(m_free > 0)) return 0;
   for (auto& L : body.levels)
     for (std::size_t i = 0; i < L.node_count; ++i)
-      if (L.state[i] == kNodeFree) {
-        for (int k = 0; k < 3; ++k) L.v[k][i] = T(double(L.v[k][i]) + cs.p_before[k] / m_free);
-        ++count;
-      }
+      if (L.state[i] == kNodeFree)
+        for (int k = 0; k < 3; ++k) L.v[k][i] = T(double(L.v[k][i]) + dp[k] / m_free);
   return count;
 }
 
