@@ -6,7 +6,8 @@
 // slivers' share for non-nested ones, whose mass policy differs: apply_changes.hpp), the total
 // against rho V; the patch's own masses and region counts against those made afresh. Along the way:
 // the changes update() lists are exactly the tets whose state changed, the incremental activation
-// equals one made from scratch with the same targets, and momentum is kept (every node moving).
+// equals one made from scratch with the same targets, and momentum is kept (every node moving) on
+// the organ, which nothing holds (a held body gets no correction: keep_momentum).
 // And the work of one change is local: the same on a bar twice as long.
 #include <gtest/gtest.h>
 
@@ -156,6 +157,7 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
     return p;
   };
   const std::array<double, 3> p0 = momentum();
+  const bool held = !def.fixed.empty() || !def.prescribed.empty();
   worst_total = std::abs(expected / total_mass(a.full(0)) - 1);
   for (int c = 0; c < changes; ++c) {
     const double t = 0.01 * c;
@@ -196,7 +198,8 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
     }
     keep_momentum(a.body, apply_changes(a.body, a.ps, *a.as, ch, t));
     const std::array<double, 3> p = momentum();
-    for (int k = 0; k < 3; ++k) worst_momentum = std::max(worst_momentum, std::abs(p[std::size_t(k)] - p0[std::size_t(k)]) / std::abs(p0[0]));
+    for (int k = 0; k < 3 && !held; ++k)  // held: no correction (momentum goes to the fixed nodes)
+      worst_momentum = std::max(worst_momentum, std::abs(p[std::size_t(k)] - p0[std::size_t(k)]) / std::abs(p0[0]));
     worst = std::max(worst, compare(a.body, a.full(t), "change " + std::to_string(c)));
     worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
     // Own masses and region counts kept by the patch against those made from the full apply.
@@ -227,8 +230,6 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNested) {
               worst, worst_total, worst_sliver);
   EXPECT_LT(worst, 8e-15);        // 8.9e-16 measured
   EXPECT_LT(worst_total, 2e-14);  // 2.7e-15 measured
-  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
-  EXPECT_LT(worst_momentum, 3e-14);  // 3.0e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
@@ -251,8 +252,6 @@ TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
   EXPECT_GT(worst_sliver, 1e-3);  // 0.0054 measured: the case is not nested (else this test checks nothing more)
   EXPECT_LT(worst, 0.1);          // 0.020 measured, 6 of 60 changes renormalised (slivers: 0.54% of the volume)
   EXPECT_LT(worst_total, 1e-13);  // 2.2e-14 measured
-  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
-  EXPECT_LT(worst_momentum, 5e-14);  // 5.0e-15 measured (the issue asks for 1e-9)
 }
 
 TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {

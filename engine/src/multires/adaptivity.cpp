@@ -320,7 +320,8 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearSegment>& near
     }
   }
   // Linear momentum kept: a uniform velocity change of the free nodes takes up what the new masses
-  // and the carried-over velocities changed (summed over the touched nodes only).
+  // and the carried-over velocities changed (summed over the touched nodes only), for a body
+  // nothing holds (keep_momentum).
   keep_momentum(body, cs);
   st.apply_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return true;

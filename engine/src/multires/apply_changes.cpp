@@ -542,11 +542,15 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
       L.inv_mass[i] = L.state[i] == kNodeFree ? T(1.0 / m) : T(0);
     }
   }
+  // Held: a fixed or prescribed region selects an active node (those nodes are kNodeFixed).
+  for (const std::size_t c : ps.fixed_count) cs.held |= c > 0;
+  for (const std::size_t c : ps.prescribed_count) cs.held |= c > 0;
   return cs;
 }
 
 template <class T>
 std::size_t keep_momentum(SimBody<T>& body, const ChangeSet& cs) {
+  if (cs.held) return 0;
   // What the change did to the momentum: only the touched nodes' masses, states and velocities changed.
   double dp[3] = {cs.p_before[0], cs.p_before[1], cs.p_before[2]};
   for (std::size_t l = 0; l < cs.mass_changed.size(); ++l) {

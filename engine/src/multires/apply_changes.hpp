@@ -81,6 +81,7 @@ struct ChangeSet {
   std::vector<std::vector<std::int32_t>> mass_changed;   // nodes whose mass may have changed (includes `changed`;
                                                          // every node when the change renormalised)
   double p_before[3] = {0, 0, 0};                        // kg m/s: momentum of the free nodes of mass_changed, before
+  bool held = false;                                     // some node is fixed or prescribed after the change
   PatchStats stats;
   // A node's state before the change: `now` (its current one) if it is not in `changed`.
   std::uint8_t was(int l, std::int32_t node, std::uint8_t now) const;
@@ -104,7 +105,9 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
 // a velocity jump at the edge of the touched patch, that is a strain: on a clamped bar pushed 3 cm,
 // 32 splits instead of 25 with the same thresholds (the lead's RelativeThresholds test). The shift
 // is one pass over the free nodes' velocities (3 adds a node), the one body-wide part of a change.
-// Returns the free nodes shifted.
+// Only for a body nothing holds (cs.held false): a held body exchanges momentum with its fixed and
+// prescribed nodes, and mass a change moves onto or off them is not momentum lost (correcting for
+// it set clamped bodies moving). Returns the free nodes shifted.
 template <class T>
 std::size_t keep_momentum(SimBody<T>& body, const ChangeSet& cs);
 
