@@ -99,7 +99,7 @@ TEST(Adaptivity, ForcedSplitsAndMergesConserveMassAndMomentumAndPumpNoEnergy) {
               worst_mass, worst_momentum, e0, w.energies().total(), max_energy);
   EXPECT_EQ(a.changes, 200);
   EXPECT_LT(worst_mass, 1e-13);      // 1.9e-14 measured (the issue asks for exact)
-  EXPECT_LT(worst_momentum, 1e-13);  // 8.7e-15 measured (the issue asks for 1e-9)
+  EXPECT_LT(worst_momentum, 1e-13);  // 1.4e-14 measured (the issue asks for 1e-9)
   EXPECT_LE(max_energy, 1.01 * e0);  // the issue's bound; measured: never above the start. The transfers
                                      // dissipate: the vibration's 0.010 J is gone after 200 changes
 }

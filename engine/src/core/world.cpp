@@ -414,6 +414,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
             }
           a->edge.push_back(sum / (3.0 * double(m.tet_count())));
         }
+        a->patch = detail::make_patch_state(b, *h);
         b.adapt = std::move(a);
       }
     } else {
@@ -543,7 +544,9 @@ World::AdaptStats World::adapt_stats(BodyId b) const {
   return impl_->visit([&](auto& s) {
     AdaptStats a;
     const auto& body = impl_->body(s, b);
-    if (body.adapt) a = {body.adapt->splits, body.adapt->merges, body.adapt->checks, body.adapt->changes, body.adapt->apply_seconds};
+    if (body.adapt)
+      a = {body.adapt->splits,        body.adapt->merges,        body.adapt->checks, body.adapt->changes,
+           body.adapt->apply_seconds, body.adapt->touched_nodes, body.adapt->touched_tets};
     return a;
   });
 }

@@ -395,10 +395,13 @@ ActivationState::Changes ActivationState::update() {
     if (l + 1 < n) {
       // The rule's cascade may refine tets beyond the region: they join it (stepped before, since
       // they were present and unrefined).
+      // (The search runs over the sorted region only: the cascade's tets appended after it are not
+      // sorted, and a region tet missed there was listed twice, once as turned off.)
       std::vector<std::int32_t> cascade;
       for (std::size_t k = 0; k < region.size(); ++k) refine_rule(int(l), region[k], cascade);
+      const auto sorted = std::ptrdiff_t(region.size());
       for (auto t : cascade)
-        if (!std::binary_search(region.begin(), region.begin() + std::ptrdiff_t(was_stepped.size()), t)) {
+        if (!std::binary_search(region.begin(), region.begin() + sorted, t)) {
           region.push_back(t);
           was_stepped.push_back(present_[l][std::size_t(t)]);
           was_split.push_back(0);

@@ -263,29 +263,10 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
     changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
   if (!changed) return false;
   ++st.changes;
-  std::vector<std::vector<std::uint8_t>> old_state(static_cast<std::size_t>(levels));
-  std::vector<std::vector<double>> old_mass(static_cast<std::size_t>(levels));
-  double p_before[3] = {0, 0, 0};
-  for (int l = 0; l < levels; ++l) {
-    const Level<T>& L = body.levels[std::size_t(l)];
-    old_state[std::size_t(l)].assign(L.state.begin(), L.state.end());
-    old_mass[std::size_t(l)].assign(L.mass.begin(), L.mass.end());
-    for (std::size_t i = 0; i < L.node_count; ++i)
-      if (L.state[i] == kNodeFree)
-        for (int k = 0; k < 3; ++k) p_before[k] += double(L.mass[i]) * double(L.v[k][i]);
-  }
-  std::vector<const TetMesh*> meshes;
-  for (const TetMesh& m : h.meshes) meshes.push_back(&m);
-  apply_activation(body, as.snapshot(), h, meshes, t);
-  // A tet no longer stepped must not keep its last corner forces: the gather sums every tet
-  // around a node (the stepped ones are the only ones ever written).
-  for (int l = 0; l < levels; ++l) {
-    Level<T>& L = body.levels[std::size_t(l)];
-    const std::vector<std::uint8_t>& on = as.stepped_mask(l);
-    for (std::size_t e = 0; e < L.tet_count; ++e)
-      if (!on[e])
-        for (auto& c : L.corner_force) c[e] = T(0);
-  }
+  // Patched in place, over the changed nodes and tets only (apply_changes.hpp).
+  const ChangeSet cs = apply_changes(body, st.patch, as, ch, t);
+  st.touched_nodes += std::int64_t(cs.stats.nodes);
+  st.touched_tets += std::int64_t(cs.stats.tets);
 
   // Nodes that start being simulated take the field that was simulated there: from the finer
   // level where it was active (a merge), else from the coarser one (a split).
@@ -293,8 +274,10 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
     if (link.tet < 0) return false;
     const TetMesh& m = h.meshes[std::size_t(l)];
     const auto& tet = m.tets[std::size_t(link.tet)];
-    for (int a = 0; a < 4; ++a)
-      if (old_state[std::size_t(l)][std::size_t(tet[std::size_t(a)])] == kNodeInactive) return false;
+    for (int a = 0; a < 4; ++a) {
+      const std::int32_t c = tet[std::size_t(a)];
+      if (cs.was(l, c, body.levels[std::size_t(l)].state[std::size_t(c)]) == kNodeInactive) return false;
+    }
     (void)i;
     return true;
   };
@@ -307,8 +290,9 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
   for (int l = 0; l < levels; ++l) {
     Level<T>& L = body.levels[std::size_t(l)];
     const LevelLinks& lk = h.links[std::size_t(l)];
-    for (std::size_t i = 0; i < L.node_count; ++i) {
-      const std::uint8_t was = old_state[std::size_t(l)][i], now = L.state[i];
+    for (std::size_t k = 0; k < cs.changed[std::size_t(l)].size(); ++k) {  // only they can change state
+      const auto i = std::size_t(cs.changed[std::size_t(l)][k]);
+      const std::uint8_t was = cs.old_state[std::size_t(l)][k], now = L.state[i];
       if (now == kNodeFixed && was != kNodeFixed) {
         bool prescribed = false;
         for (const MotionState& ms : body.motions)
@@ -381,25 +365,9 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
     }
   }
   // Linear momentum kept: a uniform velocity change of the free nodes takes up what the new masses
-  // and the carried-over velocities changed. Only for a body nothing holds: a held body exchanges
-  // momentum with its fixed and prescribed nodes, and mass that a change moves onto them (or off
-  // them) is not momentum lost; correcting for it set whole clamped bodies moving (0.55 m/s next to
-  // a clamp in a stress scene).
-  bool held = false;
-  for (const auto& L : body.levels)
-    for (std::size_t i = 0; i < L.node_count && !held; ++i) held = L.state[i] == kNodeFixed;
-  double p_after[3] = {0, 0, 0}, m_free = 0;
-  for (auto& L : body.levels)
-    for (std::size_t i = 0; i < L.node_count && !held; ++i)
-      if (L.state[i] == kNodeFree) {
-        m_free += double(L.mass[i]);
-        for (int k = 0; k < 3; ++k) p_after[k] += double(L.mass[i]) * double(L.v[k][i]);
-      }
-  if (m_free > 0)
-    for (auto& L : body.levels)
-      for (std::size_t i = 0; i < L.node_count; ++i)
-        if (L.state[i] == kNodeFree)
-          for (int k = 0; k < 3; ++k) L.v[k][i] = T(double(L.v[k][i]) + (p_before[k] - p_after[k]) / m_free);
+  // and the carried-over velocities changed (summed over the touched nodes only), for a body
+  // nothing holds (keep_momentum).
+  keep_momentum(body, cs);
   st.apply_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   return true;
 }

@@ -2,11 +2,11 @@
 // multiresolution body's levels are active changes while it runs. At the ticks where every level's
 // window ends (the only points where no level is in the middle of a step), the strain measure of
 // AdaptDef decides which coarse nodes split and which split nodes merge back; ActivationState
-// re-evaluates the activation around them, and apply_activation rebuilds the level arrays it
-// drives (stepped runs, roles, ghosts, receivers, masses, regions). Nodes that become active take
-// their position and velocity from the field that was simulated there (barycentric, from the
-// neighbouring level); the mass stays exactly rho x volume and the body's linear momentum is kept
-// to rounding (a uniform velocity correction over the free nodes).
+// re-evaluates the activation around them, and apply_changes patches the level arrays it drives
+// (stepped runs, roles, ghosts, receivers, masses, regions) over the changed nodes and tets only.
+// Nodes that become active take their position and velocity from the field that was simulated
+// there (barycentric, from the neighbouring level); the mass stays exactly rho x volume and the
+// body's linear momentum is kept to rounding (a uniform velocity correction over the free nodes).
 #pragma once
 #include <array>
 #include <cstdint>
@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "activation.hpp"
+#include "apply_changes.hpp"
 #include "pliant/hierarchy.hpp"
 
 namespace pliant::detail {
@@ -35,6 +36,8 @@ struct AdaptiveState {
   double peak_strain = 0;                      // the body's largest |E| at the last decision (diagnostics)
   int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
   double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
+  std::int64_t touched_nodes = 0, touched_tets = 0;  // work of the applies so far (PatchStats summed)
+  PatchState patch;                            // what the applies keep between changes (make_patch_state at build)
 };
 
 // The arrays of `body` that follow from an activation (every level): stepped runs, node states,

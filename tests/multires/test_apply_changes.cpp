@@ -1,0 +1,348 @@
+// Applying a change of an adaptive body in place (engine/src/multires/apply_changes.*): after
+// every one of a sequence of random splits and merges, the patched level arrays equal what the full
+// apply_activation gives from the activation's snapshot (on a copy of the body): stepped runs,
+// states, ghost and receiver CSRs, impulse sizes, loads and prescribed nodes compared exactly,
+// masses and inverse masses as the largest relative difference (rounding for nested levels; the
+// slivers' share for non-nested ones, whose mass policy differs: apply_changes.hpp), the total
+// against rho V; the patch's own masses and region counts against those made afresh. Along the way:
+// the changes update() lists are exactly the tets whose state changed, the incremental activation
+// equals one made from scratch with the same targets, and momentum is kept (every node moving) on
+// the organ, which nothing holds (a held body gets no correction: keep_momentum).
+// And the work of one change is local: the same on a bar twice as long.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <array>
+#include <random>
+
+#include "../../engine/src/core/simulation.hpp"
+#include "../../engine/src/multires/activation.hpp"
+#include "../../engine/src/multires/adaptivity.hpp"
+#include "../../engine/src/multires/apply_changes.hpp"
+#include "pliant/hierarchy.hpp"
+#include "pliant/scheduler/executor.hpp"
+#include "pliant/world.hpp"
+
+namespace pliant::detail {
+namespace {
+
+// An adaptive box bar with a clamp at x = 0, a prescribed end at x = max, and a load on a slab in
+// the middle: every kind of region, over nodes that change role.
+BodyDef bar(std::array<int, 3> cells, int levels, double ratio) {
+  BodyDef b;
+  b.name = "bar";
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = {0.1 * cells[0] / cells[1], 0.1, 0.1 * cells[2] / cells[1]};
+  b.mesh.cells = cells;
+  b.mesh.tets_per_cell = 6;
+  b.material.young = 1e5;
+  b.material.density = 1000;
+  b.multiresolution.levels = levels;
+  b.multiresolution.ratio = ratio;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-9, 1, 1};
+  b.fixed.push_back(clamp);
+  PrescribedMotionDef end;
+  end.region.min = {b.mesh.max[0] - 1e-9, -1, -1};
+  end.region.max = {10, 10, 10};
+  end.keyframes = {{0.0, {0, 0, 0}}, {1.0, {0, 0.01, 0}}};
+  b.prescribed.push_back(end);
+  NodalLoadDef load;
+  load.region.min = {0.4 * b.mesh.max[0], -1, -1};
+  load.region.max = {0.6 * b.mesh.max[0], 10, 10};
+  load.total_force = {0, -2, 1};
+  b.loads.push_back(load);
+  return b;
+}
+
+struct Adaptive {
+  Hierarchy h;
+  Executor exec{1};
+  SimBody<double> body;
+  std::unique_ptr<ActivationState> as;
+  PatchState ps;
+  explicit Adaptive(const BodyDef& def) : h(link_levels(build_level_meshes(def, build_mesh(def.mesh)))) {
+    body = build_multilevel_body<double>(h, def, 0.5, exec);
+    as = std::make_unique<ActivationState>(h, node_targets(h, def.multiresolution.active));
+    ps = make_patch_state(body, h);
+  }
+  // The body as the full apply makes it from the activation's snapshot now.
+  SimBody<double> full(double t) const {
+    SimBody<double> f = body;
+    std::vector<const TetMesh*> meshes;
+    for (const TetMesh& m : h.meshes) meshes.push_back(&m);
+    apply_activation(f, as->snapshot(), h, meshes, t);
+    return f;
+  }
+};
+
+template <class A, class B>
+bool same(const A& a, const B& b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin());
+}
+
+// Compares the patched body with the full apply's; returns the largest relative mass difference.
+double compare(const SimBody<double>& got, const SimBody<double>& want, const std::string& where) {
+  double worst = 0;
+  for (std::size_t l = 0; l < got.levels.size(); ++l) {
+    SCOPED_TRACE(where + ", level " + std::to_string(l));
+    const Level<double>& G = got.levels[l];
+    const Level<double>& W = want.levels[l];
+    EXPECT_EQ(G.stepped_runs.size(), W.stepped_runs.size());
+    for (std::size_t r = 0; r < std::min(G.stepped_runs.size(), W.stepped_runs.size()); ++r) {
+      EXPECT_EQ(G.stepped_runs[r].begin, W.stepped_runs[r].begin) << r;
+      EXPECT_EQ(G.stepped_runs[r].end, W.stepped_runs[r].end) << r;
+    }
+    EXPECT_EQ(G.stepped_count, W.stepped_count);
+    EXPECT_TRUE(same(G.state, W.state));
+    EXPECT_TRUE(same(G.ghosts, W.ghosts));
+    EXPECT_TRUE(same(G.ghost_offsets, W.ghost_offsets));
+    EXPECT_TRUE(same(G.ghost_source_level, W.ghost_source_level));
+    EXPECT_TRUE(same(G.ghost_source_node, W.ghost_source_node));
+    EXPECT_TRUE(same(G.ghost_weight, W.ghost_weight));  // the same bits: both copy the activation's
+    EXPECT_TRUE(same(G.receivers, W.receivers));
+    EXPECT_TRUE(same(G.receive_offsets, W.receive_offsets));
+    EXPECT_TRUE(same(G.receive_ghost_level, W.receive_ghost_level));
+    EXPECT_TRUE(same(G.receive_ghost_node, W.receive_ghost_node));
+    EXPECT_TRUE(same(G.receive_weight, W.receive_weight));
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(G.impulse[k].size(), W.impulse[k].size());
+      EXPECT_TRUE(same(G.external[k], W.external[k])) << k;  // same sums in the same order
+    }
+    for (std::size_t m = 0; m < got.motions.size(); ++m) EXPECT_TRUE(same(got.motions[m].nodes[l], want.motions[m].nodes[l]));
+    for (std::size_t i = 0; i < G.node_count; ++i) {
+      EXPECT_EQ(G.mass[i] == 0, W.mass[i] == 0) << i;
+      EXPECT_EQ(G.inv_mass[i] == 0, W.inv_mass[i] == 0) << i;
+      if (W.mass[i] > 0) worst = std::max(worst, std::abs(G.mass[i] / W.mass[i] - 1));
+      if (W.inv_mass[i] > 0) worst = std::max(worst, std::abs(G.inv_mass[i] / W.inv_mass[i] - 1));
+    }
+  }
+  return worst;
+}
+
+double total_mass(const SimBody<double>& b) {
+  double m = 0;
+  for (const auto& L : b.levels)
+    for (std::size_t i = 0; i < L.node_count; ++i) m += L.mass[i];
+  return m;
+}
+
+// Random targets on random nodes of every level (splits, merges, and nodes split two levels at
+// once), applied in place, against the full apply after every change.
+double worst_momentum = 0;  // relative, over the random changes of the last random_changes()
+
+double random_changes(const BodyDef& def, int changes, double& worst_total, double& worst_sliver,
+                      std::int64_t* renormalisations = nullptr) {
+  Adaptive a(def);
+  worst_momentum = 0;
+  const double expected = total_mass(a.body);  // rho x V since the build
+  std::mt19937 rng(1234);
+  const int n = int(a.h.levels());
+  double worst = 0;
+  // Every node moving (inactive ones too: those that become free bring a velocity the correction
+  // must take up, as carried-over ones do), so that the momentum kept checks the touched set.
+  std::uniform_real_distribution<double> velocity(-1, 1);
+  for (auto& L : a.body.levels)
+    for (int k = 0; k < 3; ++k)
+      for (std::size_t i = 0; i < L.node_count; ++i) L.v[k][i] = 0.3 + velocity(rng);
+  auto momentum = [&] {
+    std::array<double, 3> p{0, 0, 0};
+    for (const auto& L : a.body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        if (L.state[i] == kNodeFree)
+          for (int k = 0; k < 3; ++k) p[std::size_t(k)] += L.mass[i] * L.v[k][i];
+    return p;
+  };
+  const std::array<double, 3> p0 = momentum();
+  const bool held = !def.fixed.empty() || !def.prescribed.empty();
+  worst_total = std::abs(expected / total_mass(a.full(0)) - 1);
+  for (int c = 0; c < changes; ++c) {
+    const double t = 0.01 * c;
+    const int moves = 1 + int(rng() % 12);
+    for (int k = 0; k < moves; ++k) {
+      const int l = int(rng() % unsigned(n - 1));
+      const auto node = std::int32_t(rng() % a.h.meshes[std::size_t(l)].node_count());
+      // Mostly one level finer or back; sometimes the finest at once.
+      const unsigned pick = rng() % 8;
+      a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : n - 1);
+    }
+    std::vector<std::vector<std::uint8_t>> before(std::size_t(n), std::vector<std::uint8_t>{});
+    for (int l = 0; l < n; ++l) before[std::size_t(l)] = a.as->stepped_mask(l);
+    const ActivationState::Changes ch = a.as->update();
+    // The changes drive the apply: they must be exactly the tets whose stepped state changed.
+    for (int l = 0; l < n; ++l) {
+      std::vector<std::int32_t> on, off, listed_on = ch.tets_on[std::size_t(l)], listed_off = ch.tets_off[std::size_t(l)];
+      for (std::size_t e = 0; e < before[std::size_t(l)].size(); ++e)
+        if (before[std::size_t(l)][e] != a.as->stepped_mask(l)[e]) (a.as->stepped_mask(l)[e] ? on : off).push_back(std::int32_t(e));
+      std::sort(listed_on.begin(), listed_on.end());
+      std::sort(listed_off.begin(), listed_off.end());
+      EXPECT_EQ(listed_on, on) << "change " << c << ", level " << l;
+      EXPECT_EQ(listed_off, off) << "change " << c << ", level " << l;
+    }
+    if (c % 10 == 9) {  // the incremental activation against one made from scratch with the same targets
+      std::vector<std::vector<int>> targets(std::size_t(n), std::vector<int>{});
+      for (int l = 0; l < n; ++l)
+        for (std::size_t i = 0; i < a.h.meshes[std::size_t(l)].node_count(); ++i)
+          targets[std::size_t(l)].push_back(a.as->target(l, std::int32_t(i)));
+      const ActivationState fresh(a.h, targets);
+      for (int l = 0; l < n; ++l) {
+        EXPECT_EQ(fresh.stepped_mask(l), a.as->stepped_mask(l)) << "change " << c << ", level " << l;
+        std::size_t roles = 0;
+        for (std::size_t i = 0; i < a.h.meshes[std::size_t(l)].node_count(); ++i)
+          roles += fresh.role(l, std::int32_t(i)) != a.as->role(l, std::int32_t(i));
+        EXPECT_EQ(roles, 0u) << "change " << c << ", level " << l;
+      }
+    }
+    keep_momentum(a.body, apply_changes(a.body, a.ps, *a.as, ch, t));
+    const std::array<double, 3> p = momentum();
+    for (int k = 0; k < 3 && !held; ++k)  // held: no correction (momentum goes to the fixed nodes)
+      worst_momentum = std::max(worst_momentum, std::abs(p[std::size_t(k)] - p0[std::size_t(k)]) / std::abs(p0[0]));
+    worst = std::max(worst, compare(a.body, a.full(t), "change " + std::to_string(c)));
+    worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
+    // Own masses and region counts kept by the patch against those made from the full apply.
+    SimBody<double> full = a.full(t);
+    const PatchState fresh = make_patch_state(full, a.h);
+    for (std::size_t l = 0; l < std::size_t(n); ++l) EXPECT_TRUE(same(a.ps.own_mass[l], fresh.own_mass[l])) << c << " " << l;
+    EXPECT_EQ(a.ps.fixed_count, fresh.fixed_count);
+    EXPECT_EQ(a.ps.prescribed_count, fresh.prescribed_count);
+    EXPECT_EQ(a.ps.load_count, fresh.load_count);
+    double stepped = 0;  // the stepped tets' mass against rho V: what the factors make up for
+    for (std::size_t l = 0; l < std::size_t(n); ++l)
+      for (const Range& r : a.body.levels[l].stepped_runs)
+        for (std::size_t e = r.begin; e < r.end; ++e) stepped += 4 * a.ps.quarter_mass[l][e];
+    worst_sliver = std::max(worst_sliver, std::abs(stepped / expected - 1));
+    if (::testing::Test::HasFailure()) break;
+  }
+  if (renormalisations) *renormalisations = a.ps.renormalisations;
+  return worst;
+}
+
+TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNested) {
+  // Nested Kuhn levels (ratio 2): the stepped tets tile the body exactly, so every mass equals
+  // the full apply's to rounding (its global factor and the patch's local one are both 1 + eps).
+  double worst_total = 0, worst_sliver = 0;
+  const double worst = random_changes(bar({16, 4, 4}, 3, 2), 60, worst_total, worst_sliver);
+  std::printf("nested, 60 random changes: masses within %.3g of the full apply's, total within %.3g of rho V (stepped "
+              "tets' mass within %.3g)\n",
+              worst, worst_total, worst_sliver);
+  EXPECT_LT(worst, 8e-15);        // 8.9e-16 measured
+  EXPECT_LT(worst_total, 2e-14);  // 2.7e-15 measured
+}
+
+TEST(ApplyChanges, RandomSplitsAndMergesGiveWhatTheFullApplyGivesNonNested) {
+  // A coarse level of 5-tet cells under a fine one of 6-tet cells: the levels do not nest, their stepped tets tile the body up to slivers, and the two
+  // keep rho V differently (apply_changes.hpp): the full apply rescales every node by one global
+  // factor, the patch keeps the changed nodes' sum (or renormalises, when that sum's factor is 2%
+  // off the body's). Everything but the masses is equal; the masses differ by the slivers' share;
+  // the total is rho V for both.
+  double worst_total = 0, worst_sliver = 0;
+  BodyDef def = bar({18, 6, 6}, 2, 2);
+  MeshSourceDef coarse = def.mesh;  // five tets a cell: its diagonals cross the fine cells'
+  coarse.cells = {6, 2, 2};
+  coarse.tets_per_cell = 5;
+  def.multiresolution.coarser = {coarse};
+  std::int64_t renormalised = 0;
+  const double worst = random_changes(def, 60, worst_total, worst_sliver, &renormalised);
+  std::printf("non-nested, 60 random changes (%lld renormalised): masses within %.3g of the full apply's, total within "
+              "%.3g of rho V (stepped tets' mass within %.3g)\n",
+              static_cast<long long>(renormalised), worst, worst_total, worst_sliver);
+  EXPECT_GT(worst_sliver, 1e-3);  // 0.0054 measured: the case is not nested (else this test checks nothing more)
+  EXPECT_LT(worst, 0.1);          // 0.020 measured, 6 of 60 changes renormalised (slivers: 0.54% of the volume)
+  EXPECT_LT(worst_total, 1e-13);  // 2.2e-14 measured
+}
+
+TEST(ApplyChanges, RandomSplitsAndMergesOnTheOrgan) {
+#if PLIANT_HAS_CGAL
+  // The organ on three CGAL levels of simplified surfaces: far from nested (slivers up to 2% of the
+  // volume). Everything but the masses equal to the full apply's; the masses within about the 2%
+  // that triggers a renormalisation (apply_changes.hpp), and equal after one.
+  BodyDef b;
+  b.name = "organ";
+  b.mesh.kind = MeshSourceDef::Kind::implicit;
+  b.mesh.shape = "organ";
+  b.mesh.cell_size = 0.01;
+  b.material.young = 2e4;
+  b.material.poisson = 0.45;
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  double worst_total = 0, worst_sliver = 0;
+  std::int64_t renormalised = 0;
+  const double worst = random_changes(b, 300, worst_total, worst_sliver, &renormalised);
+  std::printf("organ, 300 random changes (%lld renormalised): masses within %.3g of the full apply's, total within %.3g "
+              "of rho V (stepped tets' mass within %.3g)\n",
+              static_cast<long long>(renormalised), worst, worst_total, worst_sliver);
+  EXPECT_GT(worst_sliver, 5e-3);  // 0.017 measured: the case is not nested
+  EXPECT_LT(worst, 0.1);          // 0.031 measured, 52 of 300 changes renormalised
+  EXPECT_LT(worst_total, 2e-14);  // 2.4e-15 measured
+  std::printf("momentum kept to %.3g (relative)\n", worst_momentum);
+  EXPECT_LT(worst_momentum, 2e-13);  // 2.3e-14 measured (the issue asks for 1e-9)
+#else
+  GTEST_SKIP() << "the organ is meshed with CGAL (PLIANT_WITH_CGAL=OFF)";
+#endif
+}
+
+// One coarse node of a 2-level bar a cells long (x 8 x 8) split, then merged back: the nodes
+// changed and the apply's work (nodes and tets read or written: PatchStats), with the body's size.
+struct LocalWork {
+  std::size_t body_nodes = 0, body_tets = 0, changed[2] = {0, 0};
+  PatchStats work[2];
+};
+LocalWork split_and_merge(int cells) {
+  const BodyDef def = bar({cells, 8, 8}, 2, 2);
+  Adaptive a(def);
+  LocalWork w;
+  for (const auto& L : a.body.levels) {
+    w.body_nodes += L.node_count;
+    w.body_tets += L.tet_count;
+  }
+  // The coarse node nearest (0.2, 0.05, 0.05): the same neighbourhood in every bar, away from the
+  // load (whose region is written again when its nodes change) and the ends.
+  const TetMesh& coarse = a.h.meshes[0];
+  std::int32_t node = 0;
+  double best = 1e300;
+  for (std::size_t i = 0; i < coarse.node_count(); ++i) {
+    const Vec3d p = coarse.point(i);
+    const double d = std::hypot(p[0] - 0.2, p[1] - 0.05, p[2] - 0.05);
+    if (d < best) {
+      best = d;
+      node = std::int32_t(i);
+    }
+  }
+  for (int step = 0; step < 2; ++step) {
+    a.as->set_target(0, node, step == 0 ? 1 : 0);
+    const ActivationState::Changes ch = a.as->update();
+    const ChangeSet cs = apply_changes(a.body, a.ps, *a.as, ch, 0.0);
+    w.work[step] = cs.stats;
+    for (const auto& c : cs.changed) w.changed[step] += c.size();
+    compare(a.body, a.full(0.0), step == 0 ? "split" : "merge");
+  }
+  std::printf("%d cells long: %zu nodes, %zu tets; split: %zu nodes changed, %zu nodes and %zu tets touched, %zu entries "
+              "written; merge: %zu changed, %zu nodes and %zu tets touched, %zu entries\n",
+              cells, w.body_nodes, w.body_tets, w.changed[0], w.work[0].nodes, w.work[0].tets, w.work[0].entries,
+              w.changed[1], w.work[1].nodes, w.work[1].tets, w.work[1].entries);
+  return w;
+}
+
+TEST(ApplyChanges, OneSplitAndItsMergeTouchOnlyTheNodesAroundIt) {
+  const LocalWork a = split_and_merge(64), b = split_and_merge(128);
+  EXPECT_GT(b.body_nodes, 19 * a.body_nodes / 10);  // the body doubles (6 090 -> 12 074 nodes)
+  for (int step = 0; step < 2; ++step) {
+    EXPECT_GT(a.changed[step], 0u);
+    // The work does not grow with the body: the same, node for node, on a bar twice as long.
+    EXPECT_EQ(a.changed[step], b.changed[step]);
+    EXPECT_EQ(a.work[step].nodes, b.work[step].nodes);
+    EXPECT_EQ(a.work[step].tets, b.work[step].tets);
+    EXPECT_EQ(a.work[step].entries, b.work[step].entries);
+    // And it is a few times the nodes changed. Measured (split and merge alike): 66 nodes changed,
+    // 148 nodes and 2 136 tets touched, of 6 090 nodes and 27 648 tets (2.4%, 7.7%).
+    EXPECT_LT(a.work[step].nodes, 10 * a.changed[step]);
+    EXPECT_LT(double(a.work[step].nodes), 0.05 * double(a.body_nodes));
+    EXPECT_LT(double(a.work[step].tets), 0.25 * double(a.body_tets));
+  }
+}
+
+}  // namespace
+}  // namespace pliant::detail
