@@ -49,6 +49,10 @@ template <class T>
 void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& h, const std::vector<const TetMesh*>& meshes,
                       double time);
 
+// The rest volume of tet t of a mesh (m^3), as the masses of apply_activation and apply_changes
+// take it (one expression, so that both give the same bits).
+double tet_rest_volume(const TetMesh& mesh, std::size_t t);
+
 // The face neighbours of every tet of a mesh (-1 across the boundary).
 std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh);
 

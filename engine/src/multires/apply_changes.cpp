@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "../core/simulation.hpp"
+#include "adaptivity.hpp"
 #include "pliant/error.hpp"
 #include "pliant/kernels/element_forces.hpp"
 
@@ -33,15 +34,6 @@ void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>&
 }
 
 bool holds(const std::vector<std::int32_t>& sorted, std::int32_t x) { return std::binary_search(sorted.begin(), sorted.end(), x); }
-
-// The same expression as apply_activation's, so that the masses are the same bits.
-double rest_volume(const TetMesh& m, std::size_t t) {
-  double p[4][3], volume = 0, grad[9];
-  for (int a = 0; a < 4; ++a)
-    for (int k = 0; k < 3; ++k) p[a][k] = m.points[3 * std::size_t(m.tets[t][std::size_t(a)]) + std::size_t(k)];
-  tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, grad);
-  return volume;
-}
 
 // The first run that begins after tet t.
 std::vector<Range>::iterator run_after(std::vector<Range>& runs, std::size_t t) {
@@ -179,10 +171,10 @@ PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
     ps.mark[l].assign(m.node_count(), 0);
     auto& q = ps.quarter_mass[l];
     q.resize(m.tet_count());
-    for (std::size_t t = 0; t < m.tet_count(); ++t) q[t] = def.material.density * rest_volume(m, t) / 4;
+    for (std::size_t t = 0; t < m.tet_count(); ++t) q[t] = def.material.density * tet_rest_volume(m, t) / 4;
     if (l + 1 == n) {  // the finest volume, summed as the full apply sums it
       ps.volume = 0;
-      for (std::size_t t = 0; t < m.tet_count(); ++t) ps.volume += rest_volume(m, t);
+      for (std::size_t t = 0; t < m.tet_count(); ++t) ps.volume += tet_rest_volume(m, t);
     }
     ps.renormalise_after += m.node_count();
     std::vector<std::uint8_t> on(m.tet_count(), 0);

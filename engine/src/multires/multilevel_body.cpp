@@ -12,14 +12,6 @@
 namespace pliant::detail {
 namespace {
 
-double rest_volume(const TetMesh& m, std::size_t t) {
-  double p[4][3], volume = 0, grad[9];
-  for (int a = 0; a < 4; ++a)
-    for (int k = 0; k < 3; ++k) p[a][k] = m.points[3 * std::size_t(m.tets[t][std::size_t(a)]) + std::size_t(k)];
-  tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, grad);
-  return volume;
-}
-
 std::vector<Range> runs_of(const std::vector<std::uint8_t>& mask) {
   std::vector<Range> runs;
   for (std::size_t t = 0; t < mask.size(); ++t) {
@@ -33,6 +25,14 @@ std::vector<Range> runs_of(const std::vector<std::uint8_t>& mask) {
 }
 
 }  // namespace
+
+double tet_rest_volume(const TetMesh& m, std::size_t t) {
+  double p[4][3], volume = 0, grad[9];
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) p[a][k] = m.points[3 * std::size_t(m.tets[t][std::size_t(a)]) + std::size_t(k)];
+  tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, grad);
+  return volume;
+}
 
 template <class T>
 SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double courant, Executor& exec) {
@@ -111,7 +111,7 @@ void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& 
     mass[l].assign(L.node_count, 0.0);
     for (std::size_t t = 0; t < m.tet_count(); ++t)
       if (la.stepped[t]) {
-        const double q = def.material.density * rest_volume(m, t) / 4;
+        const double q = def.material.density * tet_rest_volume(m, t) / 4;
         for (int a = 0; a < 4; ++a) mass[l][std::size_t(m.tets[t][std::size_t(a)])] += q;
       }
     L.ghosts.assign(la.ghosts.begin(), la.ghosts.end());
@@ -242,7 +242,7 @@ void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& 
   double total = 0, volume = 0;
   for (std::size_t l = 0; l < n; ++l)
     for (double m : mass[l]) total += m;
-  for (std::size_t t = 0; t < h.meshes.back().tet_count(); ++t) volume += rest_volume(h.meshes.back(), t);
+  for (std::size_t t = 0; t < h.meshes.back().tet_count(); ++t) volume += tet_rest_volume(h.meshes.back(), t);
   const double factor = total > 0 ? def.material.density * volume / total : 1.0;
   for (std::size_t l = 0; l < n; ++l) {
     Level<T>& L = body.levels[l];
