@@ -107,8 +107,8 @@ struct AdaptDef {
   enum class Measure { relative, absolute } measure = Measure::relative;
   static constexpr double kStrainFloor = 1e-3;  // strains below 0.1% never ask for resolution
   // Defaults chosen on the organ of scenes/adaptive_organ.json (docs/adaptivity.md): its probes stay
-  // within 4% of the all-fine run's motion (the fine level's own error against a mesh twice as fine
-  // is 14%) for 1.9x fewer tet updates; 0.25 / 0.05 gives 1.0% for 1.2x, 1.0 / 0.1 gives 13% for 2.6x.
+  // within 6% of the all-fine run's motion (the fine level's own error against a mesh twice as fine
+  // is 14%) for 2.1x fewer tet updates; 0.25 / 0.05 gives 1.0% for 1.2x, 1.0 / 0.1 gives 13% for 2.6x.
   double refine_above = 0.5;     // split where the strain jumps by more than this (relative: x the peak strain)
   double coarsen_below = 0.1;    // merge where children stay within this of the coarse field (< refine_above)
   double min_dwell = 0.05;       // s a split node's children stay calm before merging

@@ -358,7 +358,16 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         near.push_back(s);
       }
     }
+    // A change of level is not energy-neutral (the coarser tets lock in bending, a merged region
+    // snaps to the coarse field): what a change adds to kinetic + elastic energy is taken back from
+    // the body's motion relative to its mean velocity (momentum kept), as far as that motion has it.
+    const bool due = body.adapt->forced_target >= 0 || t + h + 1e-12 >= body.adapt->next_check;
+    const double e_before = due ? body_energy(body) : 0.0;
     if (!adapt_body(body, t + h, near)) continue;
+    if (due) {
+      const double excess = body_energy(body) - e_before;
+      if (excess > 0) take_energy(body, excess);
+    }
     adapted = true;
     relocate_probes(int(b));
   }
@@ -448,6 +457,55 @@ void use_current_state(const SimBody<T>& body, const Level<T>& L, ElementContext
   }
 }
 }  // namespace
+
+// Kinetic (1/2 m v^2 of the free nodes) + elastic energy of one body, in a fixed order (J).
+template <class T>
+double Simulation<T>::body_energy(const SimBody<T>& body) const {
+  double e = 0;
+  for (const Level<T>& L : body.levels) {
+    scratch.resize(L.tet_count);
+    ElementContext<T> ec = element_context(L);
+    CurrentState<T> now;
+    use_current_state(body, L, ec, now);
+    const EnergyPass<T> pass = energy_kernel<T>(L.model);
+    for (const Range& run : L.stepped_runs) {
+      pass(ec, run, scratch.data());
+      for (std::size_t t = run.begin; t < run.end; ++t) e += scratch[t];
+    }
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) e += 0.5 * double(L.mass[n]) * double(L.v[k][n]) * double(L.v[k][n]);
+  }
+  return e;
+}
+
+// Removes `excess` J from the free nodes' motion relative to their mean velocity (momentum kept), as
+// far as that motion holds it.
+template <class T>
+void Simulation<T>::take_energy(SimBody<T>& body, double excess) {
+  double m = 0, p[3] = {0, 0, 0};
+  for (const Level<T>& L : body.levels)
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree) {
+        m += double(L.mass[n]);
+        for (int k = 0; k < 3; ++k) p[k] += double(L.mass[n]) * double(L.v[k][n]);
+      }
+  if (!(m > 0)) return;
+  double relative = 0;
+  for (const Level<T>& L : body.levels)
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) {
+          const double u = double(L.v[k][n]) - p[k] / m;
+          relative += 0.5 * double(L.mass[n]) * u * u;
+        }
+  if (!(relative > 0)) return;
+  const double scale = std::sqrt(std::max(0.0, 1.0 - excess / relative));
+  for (Level<T>& L : body.levels)
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) L.v[k][n] = T(p[k] / m + scale * (double(L.v[k][n]) - p[k] / m));
+}
 
 template <class T>
 void Simulation<T>::elastic_energies(Executor& exec, double& elastic) const {

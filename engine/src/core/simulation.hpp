@@ -196,6 +196,8 @@ class Simulation {
   std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
 
   void elastic_energies(Executor& exec, double& elastic) const;
+  double body_energy(const SimBody<T>& body) const;    // kinetic + elastic of one body (J)
+  void take_energy(SimBody<T>& body, double excess);   // from its motion about its mean velocity
   // Kinetic energy (J) at the time of the positions: 1/2 sum m |v_c|^2 with, on free nodes,
   // v_c = v + (h/2) a(x, v), the mean of the stored velocity (v_{n+1/2}: the one that moved x_n to
   // x_{n+1}) and the one the next sub-step of size h will give (v_{n+3/2}); a is the force of the
