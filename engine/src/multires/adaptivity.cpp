@@ -87,16 +87,15 @@ struct CarriedField {
   std::vector<std::vector<char>> known;
 };
 
-template <class T>
-CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const ChangeSet& cs,
+// state(l, i): the node's state when x and v were taken.
+template <class T, class State>
+CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const State& state,
                            const std::vector<std::vector<double>>& x, const std::vector<std::vector<double>>& v) {
   const std::size_t levels = body.levels.size();
   CarriedField f{x, v, std::vector<std::vector<char>>(levels)};
   for (std::size_t l = 0; l < levels; ++l) {
-    const Level<T>& L = body.levels[l];
-    f.known[l].resize(L.node_count);
-    for (std::size_t i = 0; i < L.node_count; ++i)
-      f.known[l][i] = cs.was(int(l), std::int32_t(i), L.state[i]) != kNodeInactive;
+    f.known[l].resize(body.levels[l].node_count);
+    for (std::size_t i = 0; i < f.known[l].size(); ++i) f.known[l][i] = state(l, i) != kNodeInactive;
   }
   auto carry = [&](std::size_t l, std::size_t src, const TetLink& link, std::size_t i) {
     if (link.tet < 0) return;
@@ -274,8 +273,15 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
         continue;
       }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
-        if (l + 1 <= st.cap && L.state[std::size_t(i)] == kNodeFree &&
-            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))) {
+        // A node that is not split but not simulated either lies in a region refined by a split
+        // neighbour: when that neighbour merges, the tets around this node go back to level l
+        // unless it is split itself. It splits where its own merge would be refused (the finer
+        // field differs from level l's there), so that no merge drops detail it never measured
+        // (a bent 3-level bar went from its 752 finest tets to its 12 coarsest at once).
+        const bool refined_around = L.state[std::size_t(i)] == kNodeInactive &&
+                                    detail_of(l, i, restricted_now[std::size_t(l)]) >= merge_below;
+        if (l + 1 <= st.cap && (refined_around || (L.state[std::size_t(i)] == kNodeFree &&
+            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))))) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
@@ -399,7 +405,12 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
         link = &lk.to_coarser[i];
       }
       if (src < 0) {  // nothing simulated on the next levels: the field two or more levels away
-        if (!carried) carried = std::make_unique<CarriedField>(carried_field(body, h, cs, x, v));
+        if (!carried) {
+          auto was = [&](std::size_t ll, std::size_t n) {
+            return cs.was(int(ll), std::int32_t(n), body.levels[ll].state[n]);
+          };
+          carried = std::make_unique<CarriedField>(carried_field(body, h, was, x, v));
+        }
         if (!carried->known[std::size_t(l)][i]) continue;  // simulated nowhere around: its last state
         for (int k = 0; k < 3; ++k) {
           L.x[k][i] = T(carried->x[3 * std::size_t(l) + std::size_t(k)][i]);
