@@ -359,8 +359,8 @@ void realtime() {
       "Uniform fine computes {:.3g} tets per simulated second at {:.1f} ns per tet update (2 threads, measured in its run):\n"
       "{:.2f} wall s per simulated s. Adaptive: {:.3g} tet updates per simulated second; its mean tick took {:.1f} us\n"
       "against the {:.1f} us it has, of which the tets it computed account for about {:.1f} us at the fine run's rate\n"
-      "(the rest is the per-tick work that does not shrink with the active tets: ghosts, gathers and integration over\n"
-      "every node of a level, the parallel regions, the tool's contact, the decisions).\n",
+      "(the rest is the per-tick work that does not follow the tets computed: the nodes the node passes cover around\n"
+      "them, the parallel regions, the tool's contact, and the decisions, each of which reads the whole body).\n",
       1e6 * tick, 1 / tick, 1e6 * tick, f.summary.tet_updates / f.summary.simulated_time, ns_per_tet,
       f.summary.wall_time_s / f.summary.simulated_time, s.tet_updates / s.simulated_time, s.tick_mean_us, 1e6 * tick,
       1e-3 * ns_per_tet * s.tet_updates / double(std::max<std::int64_t>(s.steps, 1)));

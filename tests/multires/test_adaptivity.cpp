@@ -170,6 +170,72 @@ BodyDef clamped_slab() {
   return b;
 }
 
+TEST(Adaptivity, AChangeAcrossTwoLevelsCarriesTheFieldOver) {
+  // A 3-level block: the field jumps from the coarsest level to the finest and back, skipping the
+  // middle one, whose nodes were never simulated and sit at rest. The nodes that start being
+  // simulated must take the field that was simulated (through the middle level's links), not
+  // their own stale state: a finest node whose middle-level tet was inactive kept its rest place,
+  // 100 J of strain from nothing in a stress scene (docs/stress.md, the 3-level failures).
+  World w(no_gravity());
+  BodyDef b = block();
+  b.mesh.cells = {8, 4, 4};
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.adapt.refine_above = 10;
+  b.multiresolution.active.adapt.coarsen_below = 0;
+  w.add_body(b);
+  w.force_level(0, 0);
+  w.step();
+  ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+  ASSERT_EQ(w.level_info(0, 2).stepped_tets, 0u);
+  // (x, y, z) -> (-y, x, z) turns: a quarter for quarter == 1, a half for 2 (rigid, at rest: no force).
+  auto turned = [](const Level<double>& L, std::size_t n, int k, int quarters) {
+    const double x = L.X[0][n], y = L.X[1][n];
+    if (k == 2) return L.X[2][n];
+    if (quarters == 1) return k == 0 ? -y : x;
+    return k == 0 ? -x : -y;
+  };
+  auto turn = [&](int level, int quarters) {
+    Level<double>& L = w.level<double>(0, level);
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      for (int k = 0; k < 3; ++k) L.x[k][n] = turned(L, n, k, quarters);
+  };
+  auto worst_off = [&](int level, int quarters) {
+    const Level<double>& L = w.level<double>(0, level);
+    double worst = 0;
+    for (std::size_t n = 0; n < L.node_count; ++n)
+      if (L.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(L.x[k][n] - turned(L, n, k, quarters)));
+    return worst;
+  };
+  // Decisions fall on ticks where every level ends its window (the coarsest steps every few ticks).
+  auto step_until_only = [&](int level) {
+    for (int i = 0; i < 32 && w.level_info(0, level).stepped_tets != w.level_info(0, 0).stepped_tets +
+                                                                          w.level_info(0, 1).stepped_tets +
+                                                                          w.level_info(0, 2).stepped_tets;
+         ++i)
+      w.step();
+  };
+  turn(0, 1);
+  w.force_level(0, 2);
+  step_until_only(2);
+  ASSERT_EQ(w.level_info(0, 0).stepped_tets, 0u);
+  ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+  const double split_off = worst_off(2, 1), split_energy = w.energies().elastic;
+  turn(2, 2);
+  w.force_level(0, 0);
+  step_until_only(0);
+  ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+  ASSERT_EQ(w.level_info(0, 2).stepped_tets, 0u);
+  const double merge_off = worst_off(0, 2), merge_energy = w.energies().elastic;
+  std::printf("coarsest -> finest: finest nodes within %.3g m of the turned block, elastic %.3g J; finest -> coarsest: "
+              "%.3g m, %.3g J\n",
+              split_off, split_energy, merge_off, merge_energy);
+  EXPECT_LT(split_off, 1e-16);  // measured 2.8e-17 m (0.07 m: every finest node at rest, before)
+  EXPECT_LT(split_energy, 5e-29);  // measured 8.7e-30 J
+  EXPECT_LT(merge_off, 1e-16);  // measured 2.8e-17 m
+  EXPECT_LT(merge_energy, 5e-29);  // measured 3.9e-30 J
+}
+
 TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
   // A bar clamped at x = 0, its tip pushed 1.5 cm sideways and back: the strain near the clamp
   // passes 2% while it is bent, and the bar comes to rest after it is let go (damped).
@@ -301,6 +367,41 @@ TEST(Adaptivity, PrescribedMotionsAndRefiningProbesKeepTheirSurroundingsFine) {
   EXPECT_EQ(fine_tets_near(true, false, false, 0), 0u);    // refine_near 0: distance refines nothing
   EXPECT_EQ(fine_tets_near(false, true, false, -1), 0u);   // a probe refines only when it asks
   EXPECT_GT(fine_tets_near(true, false, false, 0.1), by_motion);  // a longer reach refines more
+}
+
+TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
+  // A slab's corner pushed: its fine level simulates the nodes around the push. Gathers,
+  // integration and obstacles run over those (and gaps of at most 8 inactive nodes between them),
+  // not the whole level: a 49k-tet organ stepping 86 fine tets near its tool gathered all 10k fine
+  // nodes every tick, as much time as its tets took (docs/adaptivity.md, the guaranteed rate).
+  World w(no_gravity());
+  BodyDef b = clamped_slab();
+  b.mesh.max[0] = 0.4;  // twice as long: grid rows of 41 fine nodes, most of them far from the push
+  b.mesh.cells[0] = 20;
+  PrescribedMotionDef push;
+  push.region.min = {-1, -1, 0.04 - 1e-9};
+  push.region.max = {0.02 + 1e-9, 1, 1};
+  push.keyframes = {{0.0, {0, 0, 0}}, {0.05, {0, 0, -0.005}}};
+  b.prescribed.push_back(push);
+  b.multiresolution.active.adapt.refine_above = 1e9;
+  b.multiresolution.active.adapt.coarsen_below = 1e8;
+  w.add_body(b);
+  while (w.time() < 0.05) w.step();
+  const LevelInfo fine = w.level_info(0, 1), coarse = w.level_info(0, 0);
+  std::printf("fine level: %zu nodes, %zu simulated (%zu free or fixed, %zu ghosts), node passes over %zu; coarse: %zu of %zu\n",
+              fine.nodes, fine.active_nodes + fine.ghost_nodes, fine.active_nodes, fine.ghost_nodes, fine.pass_nodes,
+              coarse.pass_nodes, coarse.nodes);
+  ASSERT_GT(fine.stepped_tets, 0u);
+  EXPECT_GE(fine.pass_nodes, fine.active_nodes + fine.ghost_nodes);
+  EXPECT_LT(fine.pass_nodes, fine.nodes / 2);
+  EXPECT_LE(coarse.pass_nodes, coarse.nodes);
+  // A body of one level: every node, one run.
+  World single(no_gravity());
+  BodyDef s = clamped_slab();
+  s.multiresolution = {};
+  single.add_body(s);
+  single.step();
+  EXPECT_EQ(single.level_info(0, 0).pass_nodes, single.level_info(0, 0).nodes);
 }
 
 std::uint64_t adaptive_hash(int threads) {

@@ -37,6 +37,8 @@ struct LevelInfo {
   std::size_t stepped_tets = 0;  // tets this level steps (its active part)
   std::size_t active_nodes = 0;  // nodes it integrates (free or fixed)
   std::size_t ghost_nodes = 0;   // nodes that follow coarser levels
+  std::size_t pass_nodes = 0;    // nodes its node passes (gather, integration, obstacles) run over:
+                                 // those not inactive, and short gaps between them
   int period = 1;                // fine ticks per step of the level
   double dt = 0;                 // s, its step: period x the tick
   double stable_dt = 0;          // s, its stable bound

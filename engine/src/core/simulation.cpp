@@ -80,11 +80,41 @@ void Simulation<T>::prepare(double tick_dt) {
       job_state_.push_back(std::move(js));
     }
   }
+  // Node runs: the nodes that are not inactive, gaps shorter than kNodeRunGap kept inside a run.
+  // A single-level body has one run over all its nodes.
+  constexpr std::size_t kNodeRunGap = 8;  // nodes: a gap's gather costs about what a piece does
+  node_pieces_.clear();
+  for (LevelJobState<T>& js : job_state_) {
+    const Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
+    js.first_node_piece = node_pieces_.size();
+    std::size_t n = 0;
+    while (n < L.node_count) {
+      while (n < L.node_count && L.state[n] == kNodeInactive) ++n;
+      if (n == L.node_count) break;
+      std::size_t end = n + 1, last = n;  // last: the last node of the run that is not inactive
+      while (end < L.node_count && end - last <= kNodeRunGap) {
+        if (L.state[end] != kNodeInactive) last = end;
+        ++end;
+      }
+      node_pieces_.push_back({&js, n, last + 1 - n});
+      n = last + 1;
+    }
+    js.end_node_piece = node_pieces_.size();
+  }
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
   pieces_.reserve(pieces);  // element pieces keep their address for the segments pointing at them
-  segments_.reserve(pieces + jobs_.size());
-  predicates_.reserve(2 * jobs_.size());
+  segments_.reserve(pieces + node_pieces_.size() + jobs_.size());
+  predicates_.reserve(2 * node_pieces_.size() + jobs_.size());
+}
+
+template <class T>
+std::size_t Simulation<T>::pass_nodes(int body, int level) const {
+  if (job_of_body_.size() <= std::size_t(body)) return 0;  // before the first prepare()
+  const LevelJobState<T>& js = job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)];
+  std::size_t n = 0;
+  for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) n += node_pieces_[q].count;
+  return n;
 }
 
 namespace {
@@ -102,25 +132,33 @@ template <class T>
 void run_receive(const void* ctx, Range r) {
   receive_ghost_impulses(*static_cast<const ReceiveContext<T>*>(ctx), r);
 }
+// The node passes over a NodePiece: r counts from the piece's first node.
+template <class T>
+Range nodes_of(const NodePiece<T>& p, Range r) {
+  return Range{p.first + r.begin, p.first + r.end};
+}
 template <class T>
 bool run_gather(const void* ctx, Range r) {
-  gather_forces(static_cast<const LevelJobState<T>*>(ctx)->gc, r);
+  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
+  gather_forces(p.job->gc, nodes_of(p, r));
   return true;
 }
 template <class T>
 bool run_gather_integrate(const void* ctx, Range r) {
-  const auto& js = *static_cast<const LevelJobState<T>*>(ctx);
-  return gather_integrate_symplectic_euler(js.gc, js.ic, r);
+  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
+  return gather_integrate_symplectic_euler(p.job->gc, p.job->ic, nodes_of(p, r));
 }
 template <class T>
 void run_obstacle(const void* ctx, Range r) {
-  resolve_half_space(*static_cast<const HalfSpaceContext<T>*>(ctx), r);
+  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
+  resolve_half_space(p.job->obstacle, nodes_of(p, r));
 }
 template <class T>
 bool run_integrate(const void* ctx, Range r) {
-  const auto& js = *static_cast<const LevelJobState<T>*>(ctx);
-  if (js.rc.impulse[0]) return integrate_symplectic_euler_impulse(js.ic, js.rc.impulse, r);
-  return integrate_symplectic_euler(js.ic, r);
+  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
+  const LevelJobState<T>& js = *p.job;
+  if (js.rc.impulse[0]) return integrate_symplectic_euler_impulse(js.ic, js.rc.impulse, nodes_of(p, r));
+  return integrate_symplectic_euler(js.ic, nodes_of(p, r));
 }
 
 }  // namespace
@@ -179,12 +217,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     Level<T>& L = level_of(j);
     LevelJobState<T>& js = job_state_[j];
     js.ic.dt = T(L.window_dt);
-    const std::size_t n = L.node_count;
-    if (L.coupled()) {
-      coupled_due = true;
-      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather<T>, &js});
-    } else {
-      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather_integrate<T>, &js});
+    coupled_due |= L.coupled();
+    for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+      const std::size_t n = node_pieces_[q].count;
+      predicates_.push_back({n, pass_grain(n, kNodeGrain), L.coupled() ? &run_gather<T> : &run_gather_integrate<T>, &node_pieces_[q]});
     }
   }
   bool finite = predicates_.empty() || exec.run_segments_all(predicates_.data(), predicates_.size());
@@ -211,8 +247,12 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     predicates_.clear();
     for (std::size_t j = 0; j < jobs; ++j) {
       Level<T>& L = level_of(j);
-      if (due_[j].window_end && L.coupled())
-        predicates_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_integrate<T>, &job_state_[j]});
+      if (!due_[j].window_end || !L.coupled()) continue;
+      const LevelJobState<T>& js = job_state_[j];
+      for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+        const std::size_t n = node_pieces_[q].count;
+        predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_integrate<T>, &node_pieces_[q]});
+      }
     }
     if (!predicates_.empty()) finite &= exec.run_segments_all(predicates_.data(), predicates_.size());
   }
@@ -247,7 +287,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       Level<T>& L = level_of(j);
       LevelJobState<T>& js = job_state_[j];
       js.obstacle = half_space_context(L, o, bodies[std::size_t(js.body)].origin);
-      segments_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_obstacle<T>, &js.obstacle});
+      for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+        const std::size_t n = node_pieces_[q].count;
+        segments_.push_back({n, pass_grain(n, kNodeGrain), &run_obstacle<T>, &node_pieces_[q]});
+      }
     }
     if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
   }

@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 
 #include "../collision/closest_points.hpp"
 #include "../core/simulation.hpp"
@@ -72,6 +73,55 @@ std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const 
     }
   }
   return acc;
+}
+
+// The simulated field carried to the nodes of every level, for a node that starts being simulated
+// with no simulated level next to it (a 3-level body jumping from its coarsest level to its finest,
+// or back, has the field two levels away; the node's own state is stale, from whenever it was last
+// simulated). A node that was not simulated takes the field through its links, one level at a
+// time: from the finer level where all four corners of its finer tet have it (coarser levels in
+// turn, so that the middle level gets it before the coarsest), else from the coarser one (finer
+// levels in turn). Displacements and velocities interpolated, as for one level (adapt_body).
+struct CarriedField {
+  std::vector<std::vector<double>> x, v;  // as field_now, filled where `known`
+  std::vector<std::vector<char>> known;
+};
+
+// state(l, i): the node's state when x and v were taken.
+template <class T, class State>
+CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const State& state,
+                           const std::vector<std::vector<double>>& x, const std::vector<std::vector<double>>& v) {
+  const std::size_t levels = body.levels.size();
+  CarriedField f{x, v, std::vector<std::vector<char>>(levels)};
+  for (std::size_t l = 0; l < levels; ++l) {
+    f.known[l].resize(body.levels[l].node_count);
+    for (std::size_t i = 0; i < f.known[l].size(); ++i) f.known[l][i] = state(l, i) != kNodeInactive;
+  }
+  auto carry = [&](std::size_t l, std::size_t src, const TetLink& link, std::size_t i) {
+    if (link.tet < 0) return;
+    const auto& tet = h.meshes[src].tets[std::size_t(link.tet)];
+    for (int a = 0; a < 4; ++a)
+      if (!f.known[src][std::size_t(tet[std::size_t(a)])]) return;
+    for (std::size_t k = 0; k < 3; ++k) {
+      double xs = 0, vs = 0, xr = 0;
+      for (std::size_t a = 0; a < 4; ++a) {
+        const auto c = std::size_t(tet[a]);
+        xs += link.weights[a] * f.x[3 * src + k][c];
+        vs += link.weights[a] * f.v[3 * src + k][c];
+        xr += link.weights[a] * double(body.levels[src].X[k][c]);
+      }
+      f.x[3 * l + k][i] = double(body.levels[l].X[k][i]) + (xs - xr);
+      f.v[3 * l + k][i] = vs;
+    }
+    f.known[l][i] = 1;
+  };
+  for (std::size_t l = levels - 1; l-- > 0;)
+    for (std::size_t i = 0; i < body.levels[l].node_count; ++i)
+      if (!f.known[l][i]) carry(l, l + 1, h.links[l].to_finer[i], i);
+  for (std::size_t l = 1; l < levels; ++l)
+    for (std::size_t i = 0; i < body.levels[l].node_count; ++i)
+      if (!f.known[l][i]) carry(l, l - 1, h.links[l].to_coarser[i], i);
+  return f;
 }
 
 }  // namespace
@@ -223,8 +273,15 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
         continue;
       }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
-        if (l + 1 <= st.cap && L.state[std::size_t(i)] == kNodeFree &&
-            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))) {
+        // A node that is not split but not simulated either lies in a region refined by a split
+        // neighbour: when that neighbour merges, the tets around this node go back to level l
+        // unless it is split itself. It splits where its own merge would be refused (the finer
+        // field differs from level l's there), so that no merge drops detail it never measured
+        // (a bent 3-level bar went from its 752 finest tets to its 12 coarsest at once).
+        const bool refined_around = L.state[std::size_t(i)] == kNodeInactive &&
+                                    detail_of(l, i, restricted_now[std::size_t(l)]) >= merge_below;
+        if (l + 1 <= st.cap && (refined_around || (L.state[std::size_t(i)] == kNodeFree &&
+            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))))) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
@@ -287,6 +344,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
   // velocity instead gave the coarse node, with its larger mass, whatever mode that node was in,
   // and 100 forced cycles pumped a block's energy up 10^7-fold).
   const auto& restricted = restricted_now;  // taken before the change, from the field as it was
+  std::unique_ptr<CarriedField> carried;     // made at the first node that needs it
   for (int l = 0; l < levels; ++l) {
     Level<T>& L = body.levels[std::size_t(l)];
     const LevelLinks& lk = h.links[std::size_t(l)];
@@ -346,7 +404,20 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
         src = l - 1;
         link = &lk.to_coarser[i];
       }
-      if (src < 0) continue;  // nothing simulated around it: it keeps its last state
+      if (src < 0) {  // nothing simulated on the next levels: the field two or more levels away
+        if (!carried) {
+          auto was = [&](std::size_t ll, std::size_t n) {
+            return cs.was(int(ll), std::int32_t(n), body.levels[ll].state[n]);
+          };
+          carried = std::make_unique<CarriedField>(carried_field(body, h, was, x, v));
+        }
+        if (!carried->known[std::size_t(l)][i]) continue;  // simulated nowhere around: its last state
+        for (int k = 0; k < 3; ++k) {
+          L.x[k][i] = T(carried->x[3 * std::size_t(l) + std::size_t(k)][i]);
+          L.v[k][i] = T(carried->v[3 * std::size_t(l) + std::size_t(k)][i]);
+        }
+        continue;
+      }
       const auto& tet = h.meshes[std::size_t(src)].tets[std::size_t(link->tet)];
       for (int k = 0; k < 3; ++k) {
         double xs = 0, vs = 0;
