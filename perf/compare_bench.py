@@ -172,6 +172,13 @@ class Matched:
         return "; ".join(out)
 
 
+def scene_note(m):
+    t_old, t_new = m.first("old", "tets"), m.first("new", "tets")
+    if t_old and num(t_new) and t_old != t_new:
+        return "; ".join(filter(None, [m.note(), "different meshes (see the notes)"]))
+    return m.note()
+
+
 def time_column(kind):
     return "step_p50_us" if kind == "scene" else "ns_per_tet"
 
@@ -263,13 +270,13 @@ def compare(old_paths, new_paths, args, out):
         rt = matched(k, "realtime_factor")
         w(f"| {k[0][6:]} | {k[3]} | {k[6]} | {m.first('old', 'tets')} / {m.first('new', 'tets')} "
           f"| {fmt(m.median('old'))} | {m.span('old')} | {fmt(m.median('new'))} | {m.span('new')} | {x(m.speedup())} "
-          f"| {m.paired()} | {fmt(rt.median('old'))} → {fmt(rt.median('new'))} | {m.busy_max()} | {m.note()} |\n")
+          f"| {m.paired()} | {fmt(rt.median('old'))} → {fmt(rt.median('new'))} | {m.busy_max()} | {scene_note(m)} |\n")
 
     # ---- passes ----
     for title, keys in (
             ("Passes (element, gather, integrate, fused gather + integrate), ns/tet",
              [k for k in both if k[1] == "kernel" and not k[0].startswith("order/")]),
-            ("Memory orders (float, 1 thread), ns/tet",
+            ("Memory orders (float; 100k tets in the quick set, 1M in the full one), ns/tet",
              [k for k in both if k[0].startswith("order/")])):
         w(f"\n## {title}\n\n")
         w("| pass | model | precision | order | size | threads | old median | old range | new median | new range "
@@ -283,10 +290,10 @@ def compare(old_paths, new_paths, args, out):
     summaries = [k for k in both if k[1] == "summary"]
     if summaries:
         w("\n## Ratios within each run (summary records): median (range)\n\n")
-        w("| summary | precision | size | threads | old | new | unit |\n|---|---|---|---|---|---|---|\n")
+        w("| summary | model | precision | size | threads | old | new | unit |\n|---|---|---|---|---|---|---|---|\n")
         for k in summaries:
             m = matched(k, "value")
-            w(f"| {k[0][8:]} | {k[3]} | {k[5]} | {k[6]} | {fmt(m.median('old'))} ({m.span('old')}) "
+            w(f"| {k[0][8:]} | {k[2]} | {k[3]} | {k[5]} | {k[6]} | {fmt(m.median('old'))} ({m.span('old')}) "
               f"| {fmt(m.median('new'))} ({m.span('new')}) | {m.first('new', 'unit')} |\n")
 
     # ---- the machine as each version measured it ----
@@ -306,8 +313,13 @@ def compare(old_paths, new_paths, args, out):
         if k[1] in ("kernel", "step", "scene"):
             m = matched(k)
             t_old, t_new = m.first("old", "tets"), m.first("new", "tets")
-            if t_old and t_new and t_old != t_new and not k[0].startswith("scene/"):
-                notes.append(f"{label(k)}: {t_old} tets in the old runs, {t_new} in the new: different meshes")
+            if t_old and t_new and t_old != t_new and num(t_new):
+                text = f"{label(k)}: {t_old} tets in the old runs, {t_new} in the new: different meshes"
+                if k[1] == "scene":  # the table's step times then compare different work; per tet:
+                    per_tet = matched(k, "ns_per_tet")
+                    text += (f", so its step times compare different work; per tet, {fmt(per_tet.median('old'))} ns "
+                             f"against {fmt(per_tet.median('new'))} ({x(per_tet.speedup())})")
+                notes.append(text)
             n_old, n_new = len(m.present(m.old)), len(m.present(m.new))
             if (n_old, n_new) != (len(old_runs), len(new_runs)) and not m.note():
                 notes.append(f"{label(k)}: a value in {n_old} of {len(old_runs)} old runs, "
