@@ -3,7 +3,7 @@
 
     python3 perf/compare_bench.py --old old-run1.csv old-run2.csv ... --new new-run1.csv ... \\
         [--old-label c1dbd21] [--new-label HEAD] [--machine TEXT] [--date TEXT] [--set TEXT] \\
-        [--runs-log runs.tsv] [--note TEXT ...] [--target 2.0] > comparison.md
+        [--runs-log runs.tsv] [--scene-differs NAME ...] [--note TEXT ...] [--target 2.0] > comparison.md
 
 scripts/bench-against.sh runs both versions alternately and calls this. Records are matched on
 (case, kind, model, precision, order, size, threads) -- plus the working set for the machine's
@@ -172,11 +172,13 @@ class Matched:
         return "; ".join(out)
 
 
-def scene_note(m):
+def scene_note(m, differs):
     t_old, t_new = m.first("old", "tets"), m.first("new", "tets")
-    if t_old and num(t_new) and t_old != t_new:
-        return "; ".join(filter(None, [m.note(), "different meshes (see the notes)"]))
-    return m.note()
+    name = (m.key[0].split("/") + [""])[1]  # scene/NAME[/schedule]
+    return "; ".join(filter(None, [
+        m.note(),
+        "another scene file (see the header)" if name in differs else "",
+        "different meshes (see the notes)" if t_old and num(t_new) and t_old != t_new else ""]))
 
 
 def time_column(kind):
@@ -223,6 +225,9 @@ def compare(old_paths, new_paths, args, out):
         if busy:
             w(f"- **Load, {which}**: other processes used {statistics.median(busy):.2f} core(s) in the median case "
               f"(max {max(busy):.2f}) while its cases ran (`others_busy`)\n")
+    for n in args.scene_differs or []:
+        w(f"- **Note**: scenes/{n}.json differs between {args.old_label} and {args.new_label}: the scene/{n} records "
+          f"compare different scenes (each version runs its own)\n")
     for n in args.note or []:
         w(f"- **Note**: {n}\n")
     w("\nSpeed-up = median old time / median new time (> 1: the new code is faster); *paired* = the range of "
@@ -270,7 +275,7 @@ def compare(old_paths, new_paths, args, out):
         rt = matched(k, "realtime_factor")
         w(f"| {k[0][6:]} | {k[3]} | {k[6]} | {m.first('old', 'tets')} / {m.first('new', 'tets')} "
           f"| {fmt(m.median('old'))} | {m.span('old')} | {fmt(m.median('new'))} | {m.span('new')} | {x(m.speedup())} "
-          f"| {m.paired()} | {fmt(rt.median('old'))} → {fmt(rt.median('new'))} | {m.busy_max()} | {scene_note(m)} |\n")
+          f"| {m.paired()} | {fmt(rt.median('old'))} → {fmt(rt.median('new'))} | {m.busy_max()} | {scene_note(m, args.scene_differs or [])} |\n")
 
     # ---- passes ----
     for title, keys in (
@@ -343,6 +348,8 @@ def main(argv):
     p.add_argument("--date")
     p.add_argument("--set", help="which set and how many runs")
     p.add_argument("--runs-log", help="tab-separated log of the runs (scripts/bench-against.sh writes runs.tsv)")
+    p.add_argument("--scene-differs", action="append", metavar="NAME",
+                   help="scenes/NAME.json differs between the versions: its records are flagged (repeatable)")
     p.add_argument("--note", action="append", help="a line for the table's header (repeatable)")
     p.add_argument("--target", type=float, default=2.0, help="the whole step's speed-up target (default 2)")
     args = p.parse_args(argv)

@@ -154,10 +154,10 @@ for ((i = 1; i <= runs; ++i)); do
 done
 
 # ---- the table ----
-notes=()
+scene_flags=()
 for scene in default cantilever; do
   if ! git diff --quiet "$full" -- "scenes/$scene.json"; then  # that commit against the working tree
-    notes+=(--note "scenes/$scene.json differs between $short and $head: the scene/$scene records compare different scenes (each commit runs its own).")
+    scene_flags+=(--scene-differs "$scene")
   fi
 done
 cpu=$(lscpu | sed -n 's/^Model name: *//p' | head -n 1)
@@ -170,6 +170,6 @@ python3 "$root/perf/compare_bench.py" \
   --machine "${cpu:-unknown} ($(nproc) logical CPUs available)" \
   --date "$(date -u '+%Y-%m-%d %H:%M UTC')" \
   --set "$set_name, $runs run(s) of each, alternating (old first)" \
-  --runs-log "$out/runs.tsv" "${notes[@]}" >"$out/comparison.md"
+  --runs-log "$out/runs.tsv" "${scene_flags[@]}" >"$out/comparison.md"
 log "wrote $out/comparison.md"
 cat "$out/comparison.md"

@@ -36,7 +36,7 @@ class CompareBench(unittest.TestCase):
         old = [os.path.join(DATA, f"old-run{i}.csv") for i in (1, 2, 3)]
         new = [os.path.join(DATA, f"new-run{i}.csv") for i in (1, 2, 3)]
         p = run("--old", *old, "--new", *new, "--old-label", "c1dbd21", "--new-label", "abc1234",
-                "--machine", "Fixture CPU", "--date", "2026-01-01 00:00 UTC", "--note", "a note from the script")
+                "--machine", "Fixture CPU", "--date", "2026-01-01 00:00 UTC", "--note", "a note from the script", "--scene-differs", "default")
         if p.returncode != 0:
             raise AssertionError(f"compare_bench.py failed ({p.returncode}): {p.stderr}")
         cls.out = p.stdout
@@ -64,6 +64,8 @@ class CompareBench(unittest.TestCase):
         self.assertIn("- **Machine**: Fixture CPU", self.out)
         self.assertIn("- **Date**: 2026-01-01 00:00 UTC", self.out)
         self.assertIn("- **Note**: a note from the script", self.out)
+        self.assertIn("- **Note**: scenes/default.json differs between c1dbd21 and abc1234: the scene/default records "
+                      "compare different scenes", self.out)
         # others_busy of the timed records: old 0.01 0.01 0.0 0.01 | 0.02 0.01 0.0 | 0.05 0.01 0.0 -> max 0.05;
         # new max 0.3 (step 10k float 1T, run 2).
         self.assertIn("(max 0.05)", self.out)
@@ -103,6 +105,7 @@ class CompareBench(unittest.TestCase):
                          ("55.0", "50.0..60.0", "25.0", "20.0..30.0"))
         self.assertEqual(r["speed-up"], "2.20×")
         self.assertEqual(r["real-time factor old → new"], "1.90 → 4.00")
+        self.assertEqual(r["note"], "another scene file (see the header)")
 
     def test_a_skipped_case_matches_loosely_and_shows_why(self):
         # The new cantilever record is a skip: no model or precision, only the note.
