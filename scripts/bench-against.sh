@@ -20,7 +20,9 @@
 #   --baseline-dir DIR the old commit's export and build (default build-baseline-<commit>/,
 #                      ignored by git); reused if there: the export is kept, the build is
 #                      incremental (a no-op once built)
-#   --max-wait S       passed to both benches: seconds each stage waits for a quiet machine
+#   --max-wait S       passed to both benches: seconds each stage (and each case measured while
+#                      others were busy) waits for a quiet machine; pliant's default is 30 s,
+#                      0 measures at once (a check that the tool works on a busy machine)
 #   --jobs N           build parallelism (default 2)
 #
 # The old build gets the current build's compiler, build type, CMAKE_CXX_FLAGS, PLIANT_NATIVE,
