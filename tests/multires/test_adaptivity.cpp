@@ -258,6 +258,12 @@ TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
   EXPECT_GT(most_fine, 0u);
   EXPECT_GT(end.merges, 0);
   EXPECT_LT(w.level_info(0, 1).stepped_tets, most_fine);
+  // The decision points are timed, applies included (summary.json check_us_mean; no speed asserted).
+  EXPECT_GT(end.checks, 0);
+  EXPECT_GT(end.check_seconds, 0.0);
+  EXPECT_LE(end.apply_seconds, end.check_seconds);
+  EXPECT_LE(end.check_max_seconds, end.check_seconds);
+  EXPECT_GE(end.check_max_seconds * double(end.checks), end.check_seconds);
 }
 
 TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {

@@ -112,6 +112,9 @@ struct RunSummary {
     std::string body;
     std::int64_t splits = 0, merges = 0, changes = 0;
     double apply_us_per_change = 0;  // us of wall time to apply one change (re-activation + state transfer)
+    std::int64_t checks = 0;         // decision points
+    double check_us_mean = 0;        // us of wall time per decision point (measure, decide, apply, energy)
+    double check_us_max = 0;         // the longest one
   };
   std::vector<Adapt> adapt;
   // Tools (docs/tool.md), over the run's steps.

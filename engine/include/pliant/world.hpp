@@ -166,6 +166,8 @@ class World {
     std::int64_t checks = 0;              // decision points so far (ticks where every level's window ended)
     std::int64_t changes = 0;             // decisions that changed what is stepped
     double apply_seconds = 0;             // s of wall time spent applying the changes
+    double check_seconds = 0;             // s of wall time of the decision points, applies included
+    double check_max_seconds = 0;         // s, the longest of them
     std::int64_t touched_nodes = 0, touched_tets = 0;  // nodes and tets the applies read or wrote (their work)
   };
   AdaptStats adapt_stats(BodyId body) const;  // zeros for a body that is not adaptive

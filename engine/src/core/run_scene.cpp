@@ -203,7 +203,8 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     nlohmann::ordered_json a = nlohmann::ordered_json::array();
     for (const auto& x : s.adapt)
       a.push_back({{"body", x.body}, {"splits", x.splits}, {"merges", x.merges}, {"changes", x.changes},
-                   {"apply_us_per_change", x.apply_us_per_change}});
+                   {"apply_us_per_change", x.apply_us_per_change}, {"checks", x.checks},
+                   {"check_us_mean", x.check_us_mean}, {"check_us_max", x.check_us_max}});
     j["adaptivity"] = a;
     std::int64_t splits = 0, merges = 0;
     for (const auto& x : s.adapt) {
@@ -476,7 +477,8 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     const World::AdaptStats a = world.adapt_stats(BodyId(b));
     if (a.checks == 0) continue;
     s.adapt.push_back({world.body_def(BodyId(b)).name, a.splits, a.merges, a.changes,
-                       a.changes > 0 ? 1e6 * a.apply_seconds / double(a.changes) : 0.0});
+                       a.changes > 0 ? 1e6 * a.apply_seconds / double(a.changes) : 0.0, a.checks,
+                       1e6 * a.check_seconds / double(a.checks), 1e6 * a.check_max_seconds});
   }
   const TickStats& ts = world.tick_stats();
   s.tet_updates = ts.tet_updates();

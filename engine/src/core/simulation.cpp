@@ -5,6 +5,7 @@
 #include "simulation.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -405,12 +406,21 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // snaps to the coarse field): what a change adds to kinetic + elastic energy is taken back from
     // the body's motion relative to its mean velocity (momentum kept), as far as that motion has it.
     const bool due = body.adapt->forced_target >= 0 || t + h + 1e-12 >= body.adapt->next_check;
-    const double e_before = due ? body_energy(body) : 0.0;
-    if (!adapt_body(body, t + h, near)) continue;
-    if (due) {
-      const double excess = body_energy(body) - e_before;
-      if (excess > 0) take_energy(body, excess);
+    if (!due) continue;
+    const auto started = std::chrono::steady_clock::now();
+    auto clock_check = [&] {
+      const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+      body.adapt->check_seconds += s;
+      body.adapt->check_max_seconds = std::max(body.adapt->check_max_seconds, s);
+    };
+    const double e_before = body_energy(body);
+    if (!adapt_body(body, t + h, near)) {
+      clock_check();
+      continue;
     }
+    const double excess = body_energy(body) - e_before;
+    if (excess > 0) take_energy(body, excess);
+    clock_check();
     adapted = true;
     relocate_probes(int(b));
   }

@@ -546,7 +546,7 @@ World::AdaptStats World::adapt_stats(BodyId b) const {
     const auto& body = impl_->body(s, b);
     if (body.adapt)
       a = {body.adapt->splits,        body.adapt->merges,        body.adapt->checks, body.adapt->changes,
-           body.adapt->apply_seconds, body.adapt->touched_nodes, body.adapt->touched_tets};
+           body.adapt->apply_seconds, body.adapt->check_seconds, body.adapt->check_max_seconds, body.adapt->touched_nodes, body.adapt->touched_tets};
     return a;
   });
 }

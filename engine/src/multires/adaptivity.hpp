@@ -36,6 +36,9 @@ struct AdaptiveState {
   double peak_strain = 0;                      // the body's largest |E| at the last decision (diagnostics)
   int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
   double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
+  double check_seconds = 0;                    // wall time of the decision points: measure, decide, apply,
+                                               // give back the energy (Simulation::step)
+  double check_max_seconds = 0;                // the longest decision point
   std::int64_t touched_nodes = 0, touched_tets = 0;  // work of the applies so far (PatchStats summed)
   PatchState patch;                            // what the applies keep between changes (make_patch_state at build)
 };
