@@ -94,10 +94,11 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
       // The scalar loop's test (tet_local.hpp), lane by lane.
       const M newton = (s.tr > 0) & (s.h00 > 0) & (s.minor > 0) & (s.det > T(1e-6) * s.scale);
       for (int k = 0; k < 3; ++k) w[b][k] = s.w[k];
-      // Newton lanes whose step is below the tolerance (or NaN) stop here, as the scalar break.
+      // Newton lanes whose step is below the tolerance (or NaN) stop here, as the scalar break;
+      // lanes whose step is final take it and stop after it (the scalar break after the update).
       stepping[b] = active[b] & newton & (s.angle2 > tol * tol);
       escaping[b] = active[b] & ~newton;
-      active[b] = stepping[b];
+      active[b] = stepping[b] & ~M(rotation_step_is_final(s, tol));
       any_escaping |= escaping[b];
     }
     // Escapes (rare: a warm start far from the answer, an inverted or flat tet), one lane at a
@@ -119,15 +120,19 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
         }
       }
     }
-    M any_active = M{};
-    for (int b = 0; b < K; ++b) any_active |= active[b];
-    if (!simd::any(any_active)) break;
+    M any_active = M{}, any_stepping = M{};
+    for (int b = 0; b < K; ++b) {
+      any_active |= active[b];
+      any_stepping |= stepping[b];
+    }
+    if (!simd::any(any_active | any_stepping)) break;
     for (int b = 0; b < K; ++b) {
       V n[4];
       rotate_by_step(q[b], w[b], n);
       for (int k = 0; k < 4; ++k) q[b][k] = stepping[b] ? n[k] : q[b][k];
       R[b] = quat_to_matrix(q[b]);
     }
+    if (!simd::any(any_active)) break;  // every lane took its final update: no check after it
   }
 }
 
