@@ -1,10 +1,13 @@
 // Private helpers of the element kernels: a batch of W tets in the lanes of one vector
 // register (GCC/Clang vector extensions), so that an element pass runs W tets per instruction.
 // Every lane does exactly the IEEE operations, in exactly the order, of the scalar code it
-// mirrors (no FMA contraction, no reassociation, correctly rounded sqrt and division), so a tet's
-// result does not depend on which lane, batch or thread computed it.
+// mirrors (no reassociation, correctly rounded sqrt and division, and fused multiply-adds only
+// where both codes ask for one through mul_add below: the build keeps -ffp-contract=off, so the
+// compiler never fuses on its own), so a tet's result does not depend on which lane, batch or
+// thread computed it.
 #pragma once
 #include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
@@ -12,6 +15,21 @@
 
 #if defined(__x86_64__) || defined(__i386__)
 #include <immintrin.h>
+#endif
+
+// PLIANT_FMA: 1 when the target has a fused multiply-add instruction (x86 FMA3, which every
+// AVX2 and AVX-512 CPU has, or an Arm FPU), 0 otherwise (e.g. -march=x86-64, SSE2 only, where
+// std::fma is a slow software routine). With 1, mul_add(a, b, c) is a * b + c rounded once
+// (std::fma in scalar code, vfmadd in the lanes); with 0, it is a * b rounded, then + c rounded.
+// Either way the scalar code and every vector lane give the same bits and results do not depend
+// on the thread count, but an FMA build and a non-FMA build of the same source differ at
+// round-off. Override with -DPLIANT_FMA=0 (e.g. to compare against a non-FMA build).
+#ifndef PLIANT_FMA
+#if defined(__FMA__) || defined(__ARM_FEATURE_FMA) || defined(__aarch64__)
+#define PLIANT_FMA 1
+#else
+#define PLIANT_FMA 0
+#endif
 #endif
 
 namespace pliant::simd {
@@ -132,7 +150,96 @@ inline Pack<double>::N sqrt(Pack<double>::N x) {
 #endif
 }
 
+// Fused multiply-adds of one register (PLIANT_FMA only): a * b + c, a * b - c and c - a * b,
+// each rounded once. Only the x86 widths have them here; other targets take the lane loop of
+// mul_add below.
+#if PLIANT_FMA && (defined(__x86_64__) || defined(__i386__)) && defined(__FMA__)
+#define PLIANT_SIMD_NATIVE_FMA 1
+#if PLIANT_SIMD_BYTES == 64
+#define PLIANT_FMA_OPS(NAME, OP)                                                                       \
+  inline Pack<float>::N NAME(Pack<float>::N a, Pack<float>::N b, Pack<float>::N c) {                   \
+    return (Pack<float>::N)_mm512_##OP##_ps((__m512)a, (__m512)b, (__m512)c);                          \
+  }                                                                                                    \
+  inline Pack<double>::N NAME(Pack<double>::N a, Pack<double>::N b, Pack<double>::N c) {               \
+    return (Pack<double>::N)_mm512_##OP##_pd((__m512d)a, (__m512d)b, (__m512d)c);                      \
+  }
+#elif PLIANT_SIMD_BYTES == 32
+#define PLIANT_FMA_OPS(NAME, OP)                                                                       \
+  inline Pack<float>::N NAME(Pack<float>::N a, Pack<float>::N b, Pack<float>::N c) {                   \
+    return (Pack<float>::N)_mm256_##OP##_ps((__m256)a, (__m256)b, (__m256)c);                          \
+  }                                                                                                    \
+  inline Pack<double>::N NAME(Pack<double>::N a, Pack<double>::N b, Pack<double>::N c) {               \
+    return (Pack<double>::N)_mm256_##OP##_pd((__m256d)a, (__m256d)b, (__m256d)c);                     \
+  }
+#else
+#define PLIANT_FMA_OPS(NAME, OP)                                                                       \
+  inline Pack<float>::N NAME(Pack<float>::N a, Pack<float>::N b, Pack<float>::N c) {                   \
+    return (Pack<float>::N)_mm_##OP##_ps((__m128)a, (__m128)b, (__m128)c);                             \
+  }                                                                                                    \
+  inline Pack<double>::N NAME(Pack<double>::N a, Pack<double>::N b, Pack<double>::N c) {               \
+    return (Pack<double>::N)_mm_##OP##_pd((__m128d)a, (__m128d)b, (__m128d)c);                         \
+  }
+#endif
+PLIANT_FMA_OPS(fmadd, fmadd)    // a * b + c
+PLIANT_FMA_OPS(fmsub, fmsub)    // a * b - c
+PLIANT_FMA_OPS(fnmadd, fnmadd)  // c - a * b
+#undef PLIANT_FMA_OPS
+#else
+#define PLIANT_SIMD_NATIVE_FMA 0
+#endif
+
 }  // namespace native
+
+// The three multiply-adds of the kernels, for a scalar (float, double) or a vector of them.
+// With PLIANT_FMA each is rounded once (std::fma, exactly what the fused instruction computes,
+// since negating an operand is exact); without it each is a product rounded, then a sum
+// rounded, the arithmetic the code had before these helpers. Scalar code and lanes call the
+// same helper at the same place, so they keep giving the same bits.
+namespace fma_impl {
+template <class T>
+inline constexpr bool kIsScalar = std::is_floating_point_v<T>;
+
+// op: 0 = a * b + c, 1 = a * b - c, 2 = c - a * b.
+template <int Op, class T>
+inline T fused(const T& a, const T& b, const T& c) {
+  if constexpr (!PLIANT_FMA) {
+    if constexpr (Op == 0) return a * b + c;
+    else if constexpr (Op == 1) return a * b - c;
+    else return c - a * b;
+  } else if constexpr (kIsScalar<T>) {
+    if constexpr (Op == 0) return std::fma(a, b, c);
+    else if constexpr (Op == 1) return std::fma(a, b, -c);
+    else return std::fma(-a, b, c);
+  } else {
+    T out;
+#if PLIANT_SIMD_NATIVE_FMA
+    using S = std::remove_cvref_t<decltype(a[0])>;
+    using N = typename Pack<S>::N;
+    static_assert(sizeof(T) == sizeof(typename Pack<S>::V));
+    for (int u = 0; u < kUnroll; ++u) {
+      N na, nb, nc, r;
+      std::memcpy(&na, reinterpret_cast<const char*>(&a) + u * kNativeBytes, kNativeBytes);
+      std::memcpy(&nb, reinterpret_cast<const char*>(&b) + u * kNativeBytes, kNativeBytes);
+      std::memcpy(&nc, reinterpret_cast<const char*>(&c) + u * kNativeBytes, kNativeBytes);
+      if constexpr (Op == 0) r = native::fmadd(na, nb, nc);
+      else if constexpr (Op == 1) r = native::fmsub(na, nb, nc);
+      else r = native::fnmadd(na, nb, nc);
+      std::memcpy(reinterpret_cast<char*>(&out) + u * kNativeBytes, &r, kNativeBytes);
+    }
+#else
+    for (int l = 0; l < int(sizeof(T) / sizeof(a[0])); ++l) out[l] = fused<Op>(a[l], b[l], c[l]);
+#endif
+    return out;
+  }
+}
+}  // namespace fma_impl
+
+template <class T>
+inline T mul_add(const T& a, const T& b, const T& c) { return fma_impl::fused<0>(a, b, c); }  // a * b + c
+template <class T>
+inline T mul_sub(const T& a, const T& b, const T& c) { return fma_impl::fused<1>(a, b, c); }  // a * b - c
+template <class T>
+inline T neg_mul_add(const T& a, const T& b, const T& c) { return fma_impl::fused<2>(a, b, c); }  // c - a * b
 
 // v[l] = base[idx[l]] for the W lanes.
 template <class T>

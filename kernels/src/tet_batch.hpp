@@ -56,7 +56,7 @@ inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t,
   V f0[3] = {V{}, V{}, V{}};
   for (int a = 0; a < 3; ++a) {
     for (int i = 0; i < 3; ++i) {
-      const V fi = -volume * (P.m[i][0] * g[a][0] + P.m[i][1] * g[a][1] + P.m[i][2] * g[a][2]);
+      const V fi = -volume * dot3(P.m[i][0], g[a][0], P.m[i][1], g[a][1], P.m[i][2], g[a][2]);
       simd::store(c.corner_force[3 * (a + 1) + i] + t, count, fi);
       f0[i] -= fi;
     }
@@ -90,28 +90,15 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
     M stepping[K], escaping[K];
     M any_escaping = M{};
     for (int b = 0; b < K; ++b) {
-      const Mat3<V> Mt = mul_tn(R[b], A[b]);
-      const V g[3] = {Mt.m[2][1] - Mt.m[1][2], Mt.m[0][2] - Mt.m[2][0], Mt.m[1][0] - Mt.m[0][1]};
-      const V tr = trace(Mt);
-      const V h00 = tr - Mt.m[0][0], h11 = tr - Mt.m[1][1], h22 = tr - Mt.m[2][2];
-      const V h01 = T(-0.5) * (Mt.m[0][1] + Mt.m[1][0]);
-      const V h02 = T(-0.5) * (Mt.m[0][2] + Mt.m[2][0]);
-      const V h12 = T(-0.5) * (Mt.m[1][2] + Mt.m[2][1]);
-      const V c00 = h11 * h22 - h12 * h12, c01 = h02 * h12 - h01 * h22, c02 = h01 * h12 - h02 * h11;
-      const V det = h00 * c00 + h01 * c01 + h02 * c02;
-      const V scale = tr * tr * tr;
-      // tr > 0 as in the scalar code: the scale must be positive for the test to mean "positive definite".
-      const M newton = (tr > 0) & (h00 > 0) & (h00 * h11 - h01 * h01 > 0) & (det > T(1e-6) * scale);
-      const V c11 = h00 * h22 - h02 * h02, c12 = h01 * h02 - h00 * h12, c22 = h00 * h11 - h01 * h01;
-      const V inv = T(1) / det;
-      w[b][0] = (c00 * g[0] + c01 * g[1] + c02 * g[2]) * inv;
-      w[b][1] = (c01 * g[0] + c11 * g[1] + c12 * g[2]) * inv;
-      w[b][2] = (c02 * g[0] + c12 * g[1] + c22 * g[2]) * inv;
-      const V angle2 = w[b][0] * w[b][0] + w[b][1] * w[b][1] + w[b][2] * w[b][2];
-      // Newton lanes whose step is below the tolerance (or NaN) stop here, as the scalar break.
-      stepping[b] = active[b] & newton & (angle2 > tol * tol);
+      const RotationStep<V> s = rotation_step(mul_tn(R[b], A[b]));
+      // The scalar loop's test (tet_local.hpp), lane by lane.
+      const M newton = (s.tr > 0) & (s.h00 > 0) & (s.minor > 0) & (s.det > T(1e-6) * s.scale);
+      for (int k = 0; k < 3; ++k) w[b][k] = s.w[k];
+      // Newton lanes whose step is below the tolerance (or NaN) stop here, as the scalar break;
+      // lanes whose step is final take it and stop after it (the scalar break after the update).
+      stepping[b] = active[b] & newton & (s.angle2 > tol * tol);
       escaping[b] = active[b] & ~newton;
-      active[b] = stepping[b];
+      active[b] = stepping[b] & ~M(rotation_step_is_final(s, tol));
       any_escaping |= escaping[b];
     }
     // Escapes (rare: a warm start far from the answer, an inverted or flat tet), one lane at a
@@ -133,17 +120,19 @@ __attribute__((always_inline)) inline void extract_rotation_batches(const Mat3<t
         }
       }
     }
-    M any_active = M{};
-    for (int b = 0; b < K; ++b) any_active |= active[b];
-    if (!simd::any(any_active)) break;
+    M any_active = M{}, any_stepping = M{};
     for (int b = 0; b < K; ++b) {
-      const V d[4] = {V{} + T(1), T(0.5) * w[b][0], T(0.5) * w[b][1], T(0.5) * w[b][2]};
+      any_active |= active[b];
+      any_stepping |= stepping[b];
+    }
+    if (!simd::any(any_active | any_stepping)) break;
+    for (int b = 0; b < K; ++b) {
       V n[4];
-      quat_mul(q[b], d, n);
-      const V inv = T(1) / simd::sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2] + n[3] * n[3]);
-      for (int k = 0; k < 4; ++k) q[b][k] = stepping[b] ? n[k] * inv : q[b][k];
+      rotate_by_step(q[b], w[b], n);
+      for (int k = 0; k < 4; ++k) q[b][k] = stepping[b] ? n[k] : q[b][k];
       R[b] = quat_to_matrix(q[b]);
     }
+    if (!simd::any(any_active)) break;  // every lane took its final update: no check after it
   }
 }
 

@@ -431,5 +431,49 @@ TEST(KernelBatches, NodePassesReportRunawayFiniteStates) {
   EXPECT_FALSE(within_bounds(0.0, -std::numeric_limits<double>::infinity()));
 }
 
+// The multiply-adds of the kernels (simd.hpp): each lane gives the bits of the scalar helper, and
+// with PLIANT_FMA both round once. (1 + e)(1 - e) - 1 = -e^2 exactly; rounded twice it is 0, so
+// this fails if either the scalar or the lane version is not fused where it should be (or is
+// where it should not: a build without PLIANT_FMA must keep the unfused result).
+template <class T>
+void check_mul_add_lanes() {
+  using V = typename simd::Pack<T>::V;
+  constexpr int W = simd::Pack<T>::W;
+  const T e = std::numeric_limits<T>::epsilon();
+  const T fused = PLIANT_FMA ? -e * e : T(0);
+  const T a = T(1) + e, b = T(1) - e, one = T(1);
+  EXPECT_EQ(simd::mul_add(a, b, -one), fused);
+  EXPECT_EQ(simd::mul_sub(a, b, one), fused);
+  EXPECT_EQ(simd::neg_mul_add(a, b, one), -fused);
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int round = 0; round < 50; ++round) {
+    V va, vb, vc;
+    for (int l = 0; l < W; ++l) {
+      va[l] = T(u(rng));
+      vb[l] = T(u(rng));
+      vc[l] = T(u(rng));
+    }
+    if (round == 0) {  // the exact case in lane W - 1
+      va[W - 1] = a;
+      vb[W - 1] = b;
+      vc[W - 1] = one;
+    }
+    const V r0 = simd::mul_add(va, vb, vc), r1 = simd::mul_sub(va, vb, vc), r2 = simd::neg_mul_add(va, vb, vc);
+    for (int l = 0; l < W; ++l) {
+      const T s0 = simd::mul_add(va[l], vb[l], vc[l]), s1 = simd::mul_sub(va[l], vb[l], vc[l]),
+              s2 = simd::neg_mul_add(va[l], vb[l], vc[l]);
+      EXPECT_EQ(std::memcmp(&r0[l], &s0, sizeof(T)), 0) << "lane " << l;
+      EXPECT_EQ(std::memcmp(&r1[l], &s1, sizeof(T)), 0) << "lane " << l;
+      EXPECT_EQ(std::memcmp(&r2[l], &s2, sizeof(T)), 0) << "lane " << l;
+      if (PLIANT_FMA) EXPECT_EQ(s0, std::fma(va[l], vb[l], vc[l]));
+    }
+    if (round == 0) EXPECT_EQ(r1[W - 1], fused);
+  }
+}
+
+TEST(KernelBatches, MulAddLanesGiveTheScalarBitsFloat) { check_mul_add_lanes<float>(); }
+TEST(KernelBatches, MulAddLanesGiveTheScalarBitsDouble) { check_mul_add_lanes<double>(); }
+
 }  // namespace
 }  // namespace pliant
