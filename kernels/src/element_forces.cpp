@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "tet_batch.hpp"
 #include "tet_local.hpp"
@@ -136,8 +137,9 @@ void springs_pass(const ElementContext<T>& c, Range r) {
         for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
       }
     }
-    V x[4][3], X[4][3], v[4][3];
-    detail::gather_corners(c.x, e, x);
+    V X[4][3], v[4][3];
+    detail::load_positions(c, e);
+    auto& x = e.x;
     detail::gather_corners(c.X, e, X);
     if constexpr (Damped) detail::gather_corners(c.v, e, v);
     const V volume = simd::load(c.volume + t, count);
@@ -172,6 +174,11 @@ void springs_pass(const ElementContext<T>& c, Range r) {
 }
 
 }  // namespace
+
+template <class T>
+bool packed_corners_pay() {
+  return std::is_same_v<T, float> && simd::kNativeBytes == 64;
+}
 
 template <class T>
 void element_forces_linear(const ElementContext<T>& c, Range r) {
@@ -344,6 +351,7 @@ double tet_min_altitude(const double a[3], const double b[3], const double c[3],
 }
 
 #define PLIANT_INSTANTIATE(T)                                                               \
+  template bool packed_corners_pay<T>();                                                    \
   template void element_forces_linear<T>(const ElementContext<T>&, Range);                  \
   template void element_forces_stvk<T>(const ElementContext<T>&, Range);                    \
   template void element_forces_corotational<T>(const ElementContext<T>&, Range);            \

@@ -143,6 +143,22 @@ bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const Integrat
   return g.external[0] ? gather_integrate<T, true, false>(g, table, c, r) : gather_integrate<T, false, false>(g, table, c, r);
 }
 
+template <class T>
+void pack_positions(const PackContext<T>& c, Range r) {
+  const T* __restrict x0 = c.x[0];
+  const T* __restrict x1 = c.x[1];
+  const T* __restrict x2 = c.x[2];
+  T* __restrict xp = c.xp;
+  for (std::size_t n = r.begin; n < r.end; ++n) {
+    xp[4 * n] = x0[n];
+    xp[4 * n + 1] = x1[n];
+    xp[4 * n + 2] = x2[n];
+    xp[4 * n + 3] = T(0);
+  }
+}
+
+template void pack_positions<float>(const PackContext<float>&, Range);
+template void pack_positions<double>(const PackContext<double>&, Range);
 template bool gather_integrate_symplectic_euler<float>(const GatherContext<float>&, const IntegrateContext<float>&,
                                                        Range);
 template bool gather_integrate_symplectic_euler<double>(const GatherContext<double>&, const IntegrateContext<double>&,

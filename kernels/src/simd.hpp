@@ -124,6 +124,57 @@ inline Pack<double>::N gather(const double* base, const std::int32_t* idx) {
 #endif
 }
 
+// Corner positions from an interleaved node array xp (4 values per node: x y z pad): out[k][l]
+// = xp[4 * idx[l] + k] for k = 0, 1, 2, the lanes of one register. The same values as three
+// gathers from x[3][n]; with AVX-512 one 16 (float) or 32 (double) byte load per node and a
+// transpose, instead of 3 gathers of one element per lane.
+inline void gather_xyz(const float* xp, const std::int32_t* idx, Pack<float>::N out[3]) {
+#if PLIANT_SIMD_BYTES == 64
+  // r[j] holds nodes j, j + 4, j + 8, j + 12 in its four 128-bit blocks. (The maskz_ forms with
+  // every lane set are the plain instructions; the plain intrinsics warn with GCC 12.)
+  __m512 r[4];
+  for (int j = 0; j < 4; ++j) {
+    __m512 v = _mm512_zextps128_ps512(_mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j])));
+    v = _mm512_maskz_insertf32x4(__mmask16(0xFFFF), v, _mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j + 4])), 1);
+    v = _mm512_maskz_insertf32x4(__mmask16(0xFFFF), v, _mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j + 8])), 2);
+    r[j] = _mm512_maskz_insertf32x4(__mmask16(0xFFFF), v, _mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j + 12])), 3);
+  }
+  // 4 x 4 transpose within each block: block b of out[k] = component k of nodes 4b .. 4b + 3.
+  const __m512d t0 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(__mmask16(0xFFFF), r[0], r[1]));  // x0 x1 y0 y1
+  const __m512d t1 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(__mmask16(0xFFFF), r[0], r[1]));  // z0 z1 w0 w1
+  const __m512d t2 = _mm512_castps_pd(_mm512_maskz_unpacklo_ps(__mmask16(0xFFFF), r[2], r[3]));  // x2 x3 y2 y3
+  const __m512d t3 = _mm512_castps_pd(_mm512_maskz_unpackhi_ps(__mmask16(0xFFFF), r[2], r[3]));  // z2 z3 w2 w3
+  out[0] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpacklo_pd(__mmask8(0xFF), t0, t2));
+  out[1] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpackhi_pd(__mmask8(0xFF), t0, t2));
+  out[2] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpacklo_pd(__mmask8(0xFF), t1, t3));
+#else
+  for (int l = 0; l < Pack<float>::NW; ++l)
+    for (int k = 0; k < 3; ++k) out[k][l] = xp[4 * std::ptrdiff_t(idx[l]) + k];
+#endif
+}
+inline void gather_xyz(const double* xp, const std::int32_t* idx, Pack<double>::N out[3]) {
+#if PLIANT_SIMD_BYTES == 64
+  // r[j] holds nodes j and j + 4 in its two 256-bit halves.
+  __m512d r[4];
+  for (int j = 0; j < 4; ++j) {
+    const __m512d v = _mm512_maskz_broadcast_f64x4(__mmask8(0xFF), _mm256_loadu_pd(xp + 4 * std::ptrdiff_t(idx[j])));
+    r[j] = _mm512_mask_broadcast_f64x4(v, __mmask8(0xF0), _mm256_loadu_pd(xp + 4 * std::ptrdiff_t(idx[j + 4])));
+  }
+  const __m512d t0 = _mm512_maskz_unpacklo_pd(__mmask8(0xFF), r[0], r[1]);  // x0 x1 z0 z1 | x4 x5 z4 z5
+  const __m512d t1 = _mm512_maskz_unpackhi_pd(__mmask8(0xFF), r[0], r[1]);  // y0 y1 w0 w1 | y4 y5 w4 w5
+  const __m512d t2 = _mm512_maskz_unpacklo_pd(__mmask8(0xFF), r[2], r[3]);  // x2 x3 z2 z3 | x6 x7 z6 z7
+  const __m512d t3 = _mm512_maskz_unpackhi_pd(__mmask8(0xFF), r[2], r[3]);  // y2 y3 w2 w3 | y6 y7 w6 w7
+  const __m512i lo = _mm512_set_epi64(13, 12, 5, 4, 9, 8, 1, 0);   // 128-bit blocks 0 of each half
+  const __m512i hi = _mm512_set_epi64(15, 14, 7, 6, 11, 10, 3, 2);  // blocks 1
+  out[0] = (Pack<double>::N)_mm512_permutex2var_pd(t0, lo, t2);
+  out[1] = (Pack<double>::N)_mm512_permutex2var_pd(t1, lo, t3);
+  out[2] = (Pack<double>::N)_mm512_permutex2var_pd(t0, hi, t2);
+#else
+  for (int l = 0; l < Pack<double>::NW; ++l)
+    for (int k = 0; k < 3; ++k) out[k][l] = xp[4 * std::ptrdiff_t(idx[l]) + k];
+#endif
+}
+
 // Correctly rounded square root per lane (the same bits as std::sqrt).
 inline Pack<float>::N sqrt(Pack<float>::N x) {
 #if PLIANT_SIMD_BYTES == 64
@@ -250,6 +301,16 @@ inline typename Pack<T>::V gather(const T* base, const std::int32_t* idx) {
     std::memcpy(reinterpret_cast<char*>(&v) + u * kNativeBytes, &n, kNativeBytes);
   }
   return v;
+}
+
+// out[k][l] = xp[4 * idx[l] + k], k = 0, 1, 2, for the W lanes (native::gather_xyz).
+template <class T>
+inline void gather_xyz(const T* xp, const std::int32_t* idx, typename Pack<T>::V out[3]) {
+  for (int u = 0; u < kUnroll; ++u) {
+    typename Pack<T>::N n[3];
+    native::gather_xyz(xp, idx + u * Pack<T>::NW, n);
+    for (int k = 0; k < 3; ++k) std::memcpy(reinterpret_cast<char*>(&out[k]) + u * kNativeBytes, &n[k], kNativeBytes);
+  }
 }
 
 template <class T>

@@ -23,6 +23,18 @@ struct TetBatch {
   V volume;              // m^3
 };
 
+// The corner positions of the batch's tets (e.n must be loaded): from the interleaved copy
+// when the context has one (4 loads and a transpose per corner), else gathered from x[3][n].
+template <class T>
+inline void load_positions(const ElementContext<T>& c, TetBatch<T>& e) {
+  if (c.xp) {
+    for (int a = 0; a < 4; ++a) simd::gather_xyz(c.xp, e.n[a], e.x[a]);
+  } else {
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) e.x[a][k] = simd::gather(c.x[k], e.n[a]);
+  }
+}
+
 // Loads tets [t, t + count), count <= W, corner indices, positions, gradients and volumes.
 template <class T>
 inline void load_batch(const ElementContext<T>& c, std::size_t t, int count, TetBatch<T>& e) {
@@ -34,8 +46,7 @@ inline void load_batch(const ElementContext<T>& c, std::size_t t, int count, Tet
       for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
     }
   }
-  for (int a = 0; a < 4; ++a)
-    for (int k = 0; k < 3; ++k) e.x[a][k] = simd::gather(c.x[k], e.n[a]);
+  load_positions(c, e);
   for (int a = 0; a < 3; ++a)
     for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
   e.volume = simd::load(c.volume + t, count);

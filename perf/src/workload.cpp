@@ -32,6 +32,8 @@ template <class T>
 struct Runner final : StepRunner::Impl {
   Executor& ex;
   ElementContext<T> ec;
+  PackContext<T> pk;
+  bool packed = false;  // the step packs positions before this element pass (pack_pays)
   void (*pass)(const ElementContext<T>&, Range);
   GatherContext<T> gc;
   IntegrateContext<T> ic;
@@ -40,13 +42,20 @@ struct Runner final : StepRunner::Impl {
   Runner(World& w, Executor& e) : ex(e) {
     Level<T>& L = w.level<T>(0);
     ec = element_context(L);
+    pk = pack_context(L);
+    packed = pack_pays(L, L.tet_count);
+    use_packed(ec, pk, packed);
     pass = force_kernel<T>(L.model);
     gc = gather_context(L);
     ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());  // the box world's gravity
     nt = L.tet_count;
     nn = L.node_count;
   }
-  void element() override { ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); }); }
+  // The pack, when the step does it, is timed as part of the element pass.
+  void element() override {
+    if (packed) ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { pack_positions(pk, r); });
+    ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); });
+  }
   void gather() override { ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { gather_forces(gc, r); }); }
   void integrate() override {
     ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return integrate_symplectic_euler(ic, r); });
@@ -120,12 +129,14 @@ PassCost cost(const Level<T>& L, Pass p) {
   for (auto s : L.state) free_nodes += s == kNodeFree ? 1 : 0;
 
   // Element pass: tets' indices, rest data, rotation (read + write), corner forces (write);
-  // node positions (and rest positions for springs, velocities when damped) read once.
+  // node positions (and rest positions for springs, velocities when damped) read once. With the
+  // pack (pack_pays), x is read by it, and 4 values per node written by it and read by the pass.
   PassCost e;
   const double tet_rest = springs ? S : 10 * S;
-  const double node_reads = 3 * S * (1 + (springs ? 1 : 0) + (damped ? 1 : 0));
+  const double pack = pack_pays(L, L.tet_count) ? 4 * S : 0;
+  const double node_reads = 3 * S * (1 + (springs ? 1 : 0) + (damped ? 1 : 0)) + 2 * pack;
   e.bytes = nt * (4 * I + tet_rest + (coro ? 8 * S : 0) + 12 * S) + nn * node_reads;
-  e.footprint = nt * (4 * I + tet_rest + (coro ? 4 * S : 0) + 12 * S) + nn * node_reads;
+  e.footprint = nt * (4 * I + tet_rest + (coro ? 4 * S : 0) + 12 * S) + nn * (node_reads - pack);
   e.flops = nt * element_flops(L.model, damped);
 
   // Gather: offsets, incidence, corner forces, loads; f written.

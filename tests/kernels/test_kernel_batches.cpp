@@ -106,6 +106,18 @@ struct Strip {
     c.young = T(E);
   }
 
+  // The interleaved copy of x (ElementContext::xp) the step's pack writes; the passes read it.
+  std::vector<T> xp;
+  void pack() {
+    xp.assign(4 * nn, T(-7));
+    PackContext<T> pc;
+    for (int k = 0; k < 3; ++k) pc.x[k] = x[k].data();
+    pc.xp = xp.data();
+    pack_positions(pc, Range{0, nn / 2});
+    pack_positions(pc, Range{nn / 2, nn});
+    c.xp = xp.data();
+  }
+
   void damp() {
     c.bulk_viscosity = T(40);
     c.shear_viscosity = T(25);
@@ -184,6 +196,48 @@ TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitFloat) {
 TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
   check_split_invariance<double>(false);
   check_split_invariance<double>(true);
+}
+
+// Corner positions read from the interleaved copy (4 loads and a transpose per corner with
+// AVX-512) must be the values the gathers from x[3][n] read: the same bits out, any split.
+template <class T>
+void check_packed_positions(bool damped) {
+  for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
+    Strip<T> soa(203, 5), packed(203, 5);
+    if (damped) {
+      soa.damp();
+      packed.damp();
+    }
+    packed.pack();
+    soa.forces(m, Range{0, soa.nt});
+    packed.forces_in_pieces(m, {7, 13, 1, 32, 5, 64, 3});
+    for (int q = 0; q < 12; ++q)
+      EXPECT_TRUE(same_bits(soa.cf[q], packed.cf[q])) << "model " << int(m) << " component " << q;
+    for (int k = 0; k < 4; ++k) EXPECT_TRUE(same_bits(soa.rot[k], packed.rot[k])) << "model " << int(m);
+  }
+}
+
+TEST(KernelBatches, PackedPositionsGiveTheBitsOfTheGathersFloat) {
+  check_packed_positions<float>(false);
+  check_packed_positions<float>(true);
+}
+TEST(KernelBatches, PackedPositionsGiveTheBitsOfTheGathersDouble) {
+  check_packed_positions<double>(false);
+  check_packed_positions<double>(true);
+}
+
+TEST(KernelBatches, PackWritesXyzAndZeroOnItsRangeOnly) {
+  Strip<float> s(40, 3);
+  s.xp.assign(4 * s.nn, -7.0f);
+  PackContext<float> pc;
+  for (int k = 0; k < 3; ++k) pc.x[k] = s.x[k].data();
+  pc.xp = s.xp.data();
+  pack_positions(pc, Range{5, 20});
+  for (std::size_t n = 0; n < s.nn; ++n) {
+    const bool in = n >= 5 && n < 20;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(s.xp[4 * n + std::size_t(k)], in ? s.x[k][n] : -7.0f) << "node " << n;
+    EXPECT_EQ(s.xp[4 * n + 3], in ? 0.0f : -7.0f) << "node " << n;
+  }
 }
 
 TEST(KernelBatches, CorotationalRotationsAreTheOnesTheEnergyUses) {

@@ -25,6 +25,10 @@ struct Level {
   AlignedVector<std::uint8_t> state;  // NodeStateCode
   AlignedVector<T> external[3];     // constant nodal loads (N); empty when the body has none
   AlignedVector<double> obstacle_impulse[3];  // impulse the obstacles gave each node so far (N s); empty without obstacles
+  // Private to the step: x interleaved per node (x y z 0, 4 per node) for the element passes'
+  // corner loads, rewritten from x right before them (pack_positions, level_passes.hpp); not
+  // part of the state. Empty where packed corners do not pay (packed_corners_pay).
+  AlignedVector<T> x_packed;
 
   // ---- tetrahedra ----
   std::size_t tet_count = 0;

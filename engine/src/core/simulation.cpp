@@ -48,6 +48,8 @@ void Simulation<T>::prepare(double tick_dt) {
       LevelJobState<T> js;
       js.body = int(b);
       js.level = int(l);
+      size_packed(L);
+      js.pack = pack_context(L);
       js.ec = element_context(L);
       js.pass = force_kernel<T>(L.model);
       js.run_start.assign(1, 0);
@@ -126,6 +128,10 @@ void run_piece(const void* ctx, Range r) {
   p.job->pass(p.job->ec, Range{p.first_tet + r.begin, p.first_tet + r.end});
 }
 template <class T>
+void run_pack(const void* ctx, Range r) {
+  pack_positions(*static_cast<const PackContext<T>*>(ctx), r);
+}
+template <class T>
 void run_ghosts(const void* ctx, Range r) {
   refresh_ghosts(*static_cast<const GhostContext<T>*>(ctx), r);
 }
@@ -187,6 +193,16 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
 
   // B: the element passes due now: each level's slice of its stepped tets, cut at run boundaries.
+  // First the positions of those levels, interleaved for the passes' corner loads where that pays.
+  segments_.clear();
+  for (std::size_t j = 0; j < jobs; ++j) {
+    Level<T>& L = level_of(j);
+    LevelJobState<T>& js = job_state_[j];
+    const bool pack = due_[j].begin < due_[j].end && pack_pays(L, due_[j].end - due_[j].begin);
+    use_packed(js.ec, js.pack, pack);
+    if (pack) segments_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_pack<T>, &js.pack});
+  }
+  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
   segments_.clear();
   pieces_.clear();
   last_tick_tets_ = 0;

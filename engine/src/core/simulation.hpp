@@ -131,6 +131,7 @@ struct LevelJobState {
   ElementContext<T> ec;
   ElementPass<T> pass = nullptr;
   std::vector<std::size_t> run_start;  // stepped-tet index at which each run begins (+ the total)
+  PackContext<T> pack;  // positions into x_packed, before the element pass (ec.xp set each tick)
   GatherContext<T> gc;
   IntegrateContext<T> ic;
   GhostContext<T> gh;

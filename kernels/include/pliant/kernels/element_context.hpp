@@ -10,6 +10,11 @@ struct ElementContext {
   // Nodes (SoA, one array per component).
   const T* X[3] = {};  // rest positions (m) — springs need rest lengths
   const T* x[3] = {};  // current positions (m)
+  // Optional: the same positions interleaved per node, xp[4 n + k] = x[k][n] (k < 3; the fourth
+  // value is padding), 16-byte (float) or 32-byte (double) aligned. When set, the force passes
+  // read a tet's corners from it (one load per corner instead of three gathered elements); the
+  // caller keeps it equal to x (pack_positions, node_passes.hpp). Null: read x.
+  const T* xp = nullptr;
   const T* v[3] = {};  // velocities (m/s)
   // Tetrahedra.
   const std::int32_t* tet[4] = {};  // corner node indices, positively oriented at rest

@@ -67,4 +67,18 @@ bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range nodes);
 template <class T>
 bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const IntegrateContext<T>& i, Range nodes);
 
+// The positions interleaved per node for the element passes (ElementContext::xp): xp[4 n + k] =
+// x[k][n] for k < 3 and xp[4 n + 3] = 0, on nodes [begin, end). A copy, so whoever writes x
+// (integrator, ghosts, prescribed motion, obstacles, tools, adaptivity) needs not know of it: the
+// step packs right before its element passes. (Packing the velocities too, for the damped
+// passes, did not pay: docs/performance.md.)
+template <class T>
+struct PackContext {
+  const T* x[3] = {};
+  T* xp = nullptr;  // 4 per node
+};
+
+template <class T>
+void pack_positions(const PackContext<T>& c, Range nodes);
+
 }  // namespace pliant

@@ -1,0 +1,307 @@
+// Side-by-side measurements of the data layout of a step (issue 15 §1, docs/performance.md), in
+// one process with the variants alternating every iteration, so that other processes on a
+// shared machine slow them alike (separate runs minutes apart were up to 2x apart there):
+//  1. "packed": the corotational element pass reading corners from the interleaved copy
+//     (ElementContext::xp; the pack timed with it, as the step runs it) against the same pass
+//     gathering from x[3][n] (xp = null: the code before the change), on box worlds, float and
+//     double (whatever packed_corners_pay says), undamped and damped (velocities gathered),
+//     1 and 2 threads.
+//  2. "incidence": a prototype, not the engine: the element pass (float, undamped, packed
+//     positions) writes each corner's force as (x y z 0) to the slot of its (tet, corner) in the
+//     node -> corner incidence, so the node pass sums each node's slots as one contiguous run (a
+//     streaming segmented sum) instead of loading them through the incidence codes. The node
+//     forces must be the same bits (same values summed in the same order).
+//   ./perf/layout_ab [samples] [packed or incidence]
+#include <immintrin.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "pliant/level_passes.hpp"
+#include "pliant/scheduler/executor.hpp"
+#include "pliant/perf/workload.hpp"
+// White box: the batched helpers of the element kernels.
+#include "../kernels/src/tet_batch.hpp"
+
+using namespace pliant;
+using namespace pliant::perf;
+using detail::Mat3;
+using V = simd::Pack<float>::V;
+constexpr int W = simd::Pack<float>::W;
+
+namespace {
+
+// Stores the 3 components of W corner forces as (x y z 0) at out + 4 * slot[l], lanes < count.
+void scatter_xyz(float* out, const std::int32_t* slot, int count, const V f[3]) {
+#if PLIANT_SIMD_BYTES == 64
+  const __m512 X = (__m512)f[0], Y = (__m512)f[1], Z = (__m512)f[2], O = _mm512_setzero_ps();
+  const __m512 t0 = _mm512_unpacklo_ps(X, Y), t1 = _mm512_unpackhi_ps(X, Y);
+  const __m512 t2 = _mm512_unpacklo_ps(Z, O), t3 = _mm512_unpackhi_ps(Z, O);
+  __m512 r[4];
+  r[0] = _mm512_castpd_ps(_mm512_unpacklo_pd(_mm512_castps_pd(t0), _mm512_castps_pd(t2)));
+  r[1] = _mm512_castpd_ps(_mm512_unpackhi_pd(_mm512_castps_pd(t0), _mm512_castps_pd(t2)));
+  r[2] = _mm512_castpd_ps(_mm512_unpacklo_pd(_mm512_castps_pd(t1), _mm512_castps_pd(t3)));
+  r[3] = _mm512_castpd_ps(_mm512_unpackhi_pd(_mm512_castps_pd(t1), _mm512_castps_pd(t3)));
+  if (count == W) {
+    for (int j = 0; j < 4; ++j) {
+      _mm_storeu_ps(out + 4 * std::ptrdiff_t(slot[j]), _mm512_castps512_ps128(r[j]));
+      _mm_storeu_ps(out + 4 * std::ptrdiff_t(slot[j + 4]), _mm512_extractf32x4_ps(r[j], 1));
+      _mm_storeu_ps(out + 4 * std::ptrdiff_t(slot[j + 8]), _mm512_extractf32x4_ps(r[j], 2));
+      _mm_storeu_ps(out + 4 * std::ptrdiff_t(slot[j + 12]), _mm512_extractf32x4_ps(r[j], 3));
+    }
+    return;
+  }
+#endif
+  for (int l = 0; l < count; ++l) {
+    float* p = out + 4 * std::ptrdiff_t(slot[l]);
+    p[0] = f[0][l];
+    p[1] = f[1][l];
+    p[2] = f[2][l];
+    p[3] = 0;
+  }
+}
+
+// corotational_pass of element_forces.cpp (undamped), corner forces to their incidence slots.
+void corotational_slots(const ElementContext<float>& c, const std::int32_t* const slot[4], float* out, Range r) {
+  for (std::size_t t = r.begin; t < r.end; t += W) {
+    const int count = int(std::min<std::size_t>(W, r.end - t));
+    detail::TetBatch<float> e;
+    detail::load_batch(c, t, count, e);
+    const Mat3<V> F[1] = {detail::corner_gradient(e.x, e.g)};
+    V q[1][4];
+    for (int k = 0; k < 4; ++k) q[0][k] = simd::load(c.rotation[k] + t, count);
+    Mat3<V> R[1];
+    detail::extract_rotation_batches<float, 1>(F, q, R);
+    for (int k = 0; k < 4; ++k) simd::store(c.rotation[k] + t, count, q[0][k]);
+    Mat3<V> eps = detail::sym(detail::mul_tn(R[0], F[0]));
+    for (int i = 0; i < 3; ++i) eps.m[i][i] -= 1.0f;
+    const Mat3<V> P = detail::mul(R[0], detail::hooke(eps, c.lambda, c.mu));
+    // store_corner_forces_batch's arithmetic.
+    V f[4][3];
+    V f0[3] = {V{}, V{}, V{}};
+    for (int a = 0; a < 3; ++a)
+      for (int i = 0; i < 3; ++i) {
+        const V fi = -e.volume * (P.m[i][0] * e.g[a][0] + P.m[i][1] * e.g[a][1] + P.m[i][2] * e.g[a][2]);
+        f[a + 1][i] = fi;
+        f0[i] -= fi;
+      }
+    for (int i = 0; i < 3; ++i) f[0][i] = f0[i];
+    std::int32_t s[W];
+    for (int a = 0; a < 4; ++a) {
+      for (int l = 0; l < W; ++l) s[l] = slot[a][t + std::size_t(std::min(l, count - 1))];
+      scatter_xyz(out, s, count, f[a]);
+    }
+  }
+}
+
+// gather_integrate_symplectic_euler (no external loads) over the slots: node n sums slots
+// offsets[n] .. offsets[n+1] in order, 4 lanes at once (lane k is component k's scalar chain).
+bool gather_integrate_slots(const std::int32_t* offsets, const float* cf, const IntegrateContext<float>& c,
+                            float* const f[3], Range r) {
+  bool finite = true;
+  const float dt = c.dt;
+  for (std::size_t n = r.begin; n < r.end; ++n) {
+    __m128 s = _mm_setzero_ps();
+    for (std::int32_t e = offsets[n]; e < offsets[n + 1]; ++e) s = _mm_add_ps(s, _mm_loadu_ps(cf + 4 * std::ptrdiff_t(e)));
+    alignas(16) float fn[4];
+    _mm_store_ps(fn, s);
+    f[0][n] = fn[0];
+    f[1][n] = fn[1];
+    f[2][n] = fn[2];
+    if (c.state[n] != kNodeFree) continue;
+    for (int k = 0; k < 3; ++k) {
+      const float a = fn[k] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
+      const float v = c.v[k][n] + dt * a;
+      const float x = c.x[k][n] + dt * v;
+      c.v[k][n] = v;
+      c.x[k][n] = x;
+      finite &= within_bounds(x, v);
+    }
+  }
+  return finite;
+}
+
+struct Stat {
+  double med, lo, hi;
+};
+Stat stat(std::vector<double> v, double scale) {
+  std::sort(v.begin(), v.end());
+  return {v[v.size() / 2] * scale, v.front() * scale, v.back() * scale};
+}
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point& t) {
+  const auto now = Clock::now();
+  const double s = std::chrono::duration<double>(now - t).count();
+  t = now;
+  return s;
+}
+void print(const char* what, const Stat& s) { std::printf("  %-34s %7.2f  [%6.2f - %6.2f]\n", what, s.med, s.lo, s.hi); }
+
+// 1: packed against gathered corners, element pass (+ pack) and the fused node pass after it.
+template <class T>
+void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damped, int samples) {
+  BodyDef b = box_body(ForceModel::corotational, size.cells);
+  if (damped) b.material.damping.stiffness = 1e-4;  // as the default scene
+  WorldDef wd;
+  wd.precision = p;
+  wd.threads = threads;
+  World w(wd);
+  w.add_body(b, box_mesh(size.cells, Order::grid));
+  for (int i = 0; i < 3; ++i) w.step();
+  Level<T>& L = w.level<T>(0);
+  Executor ex(threads);
+  const std::size_t nt = L.tet_count, nn = L.node_count;
+  ElementContext<T> gathered = element_context(L), packed = gathered;
+  AlignedVector<T> xp(4 * L.node_count);  // its own copy: the engine packs only where it pays
+  PackContext<T> pk = pack_context(L);
+  pk.xp = xp.data();
+  use_packed(packed, pk, true);
+  const GatherContext<T> gc = gather_context(L);
+  const IntegrateContext<T> ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());
+  const ElementPass<T> pass = force_kernel<T>(L.model);
+  auto element = [&](const ElementContext<T>& ec) {
+    ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); });
+  };
+  auto pack = [&] { ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { pack_positions(pk, r); }); };
+  auto nodes = [&] {
+    ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
+  };
+  std::vector<double> eg, ng, pp, ep, np;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    element(gathered);
+    const double a = since(t);
+    nodes();
+    const double b2 = since(t);
+    pack();
+    const double c = since(t);
+    element(packed);
+    const double d = since(t);
+    nodes();
+    const double e = since(t);
+    if (i < 3) continue;
+    eg.push_back(a);
+    ng.push_back(b2);
+    pp.push_back(c);
+    ep.push_back(c + d);
+    np.push_back(e);
+  }
+  const double k = 1e9 / double(nt);
+  std::vector<double> ratio(eg.size()), sg(eg.size()), sp(eg.size());
+  for (std::size_t i = 0; i < eg.size(); ++i) {
+    ratio[i] = ep[i] / eg[i];
+    sg[i] = eg[i] + ng[i];
+    sp[i] = ep[i] + np[i];
+  }
+  std::printf("%s tets, %s, %s, %d thread(s): ns/tet, median [min - max] of %d\n", size.label,
+              p == Precision::float32 ? "float" : "double", damped ? "damped" : "undamped", threads, samples);
+  print("element, gathered corners", stat(eg, k));
+  print("pack", stat(pp, k));
+  print("element, packed (pack included)", stat(ep, k));
+  print("  ratio packed / gathered (per pair)", stat(ratio, 1.0));
+  print("node pass after gathered", stat(ng, k));
+  print("node pass after packed", stat(np, k));
+  print("element + node pass, gathered", stat(sg, k));
+  print("element + node pass, packed", stat(sp, k));
+}
+
+// 2: the prototype of corner forces in incidence order (float, 1 thread, undamped).
+bool incidence_order(const BoxSize& size, int samples) {
+  World w = make_box_world(ForceModel::corotational, Precision::float32, 1, size.cells, Order::grid);
+  Level<float>& L = w.level<float>(0);
+  const std::size_t nt = L.tet_count, nn = L.node_count;
+  // Slot of (tet, corner): its position in the incidence.
+  std::vector<std::int32_t> slot[4];
+  for (auto& s : slot) s.assign(nt, -1);
+  for (std::size_t e = 0; e < L.incidence.size(); ++e) {
+    const std::int32_t code = L.incidence[e];
+    slot[code & 3][std::size_t(code >> 2)] = std::int32_t(e);
+  }
+  const std::int32_t* slots[4] = {slot[0].data(), slot[1].data(), slot[2].data(), slot[3].data()};
+  AlignedVector<float> cf(4 * L.incidence.size(), 0.0f);
+
+  ElementContext<float> ec = element_context(L);
+  AlignedVector<float> xp(4 * L.node_count);
+  PackContext<float> pk = pack_context(L);
+  pk.xp = xp.data();
+  use_packed(ec, pk, true);
+  GatherContext<float> gc = gather_context(L);
+  IntegrateContext<float> ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());
+  const ElementPass<float> pass = force_kernel<float>(L.model);
+  const Range tets{0, nt}, nodes{0, nn};
+
+  // Same bits: node forces of the engine's passes and of the prototype from the same state.
+  std::vector<float> rot[4], f_ref[3];
+  for (int k = 0; k < 4; ++k) rot[k].assign(L.rotation[k].begin(), L.rotation[k].end());
+  pack_positions(pk, nodes);
+  pass(ec, tets);
+  gather_forces(gc, nodes);
+  for (int k = 0; k < 3; ++k) f_ref[k].assign(L.f[k].begin(), L.f[k].end());
+  for (int k = 0; k < 4; ++k) std::copy(rot[k].begin(), rot[k].end(), L.rotation[k].begin());
+  corotational_slots(ec, slots, cf.data(), tets);
+  IntegrateContext<float> no_motion = ic;
+  no_motion.dt = 0;  // x, v unchanged: only the forces are compared
+  float* f[3] = {L.f[0].data(), L.f[1].data(), L.f[2].data()};
+  gather_integrate_slots(L.incidence_offsets.data(), cf.data(), no_motion, f, nodes);
+  bool same = true;
+  for (int k = 0; k < 3; ++k) same &= std::memcmp(f_ref[k].data(), L.f[k].data(), nn * sizeof(float)) == 0;
+
+  std::vector<double> e_eng, g_eng, e_pro, g_pro;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    pack_positions(pk, nodes);  // the engine: pack + element pass, fused gather + integrate
+    pass(ec, tets);
+    const double a = since(t);
+    gather_integrate_symplectic_euler(gc, ic, nodes);
+    const double b = since(t);
+    pack_positions(pk, nodes);  // the prototype
+    corotational_slots(ec, slots, cf.data(), tets);
+    const double c = since(t);
+    gather_integrate_slots(L.incidence_offsets.data(), cf.data(), ic, f, nodes);
+    const double d = since(t);
+    if (i < 3) continue;
+    e_eng.push_back(a);
+    g_eng.push_back(b);
+    e_pro.push_back(c);
+    g_pro.push_back(d);
+  }
+  const double k = 1e9 / double(nt);
+  std::printf("%s tets, float, undamped, 1 thread, corner forces in incidence order (prototype): node forces %s\n",
+              size.label, same ? "bitwise identical" : "DIFFER");
+  std::printf("  ns/tet, median [min - max] of %d\n", samples);
+  print("element (packed), corner arrays", stat(e_eng, k));
+  print("element (packed), incidence slots", stat(e_pro, k));
+  print("node pass, through the incidence", stat(g_eng, k));
+  print("node pass, streaming slots", stat(g_pro, k));
+  std::vector<double> se(e_eng.size()), sp(e_eng.size());
+  for (std::size_t i = 0; i < se.size(); ++i) {
+    se[i] = e_eng[i] + g_eng[i];
+    sp[i] = e_pro[i] + g_pro[i];
+  }
+  print("both, engine", stat(se, k));
+  print("both, prototype", stat(sp, k));
+  return same;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const int samples = argc > 1 ? std::atoi(argv[1]) : 41;
+  const std::string only = argc > 2 ? argv[2] : "";
+  bool ok = true;
+  for (const auto& size : standard_sizes()) {
+    if (std::string(size.label) != "10k" && std::string(size.label) != "100k") continue;
+    if (only.empty() || only == "packed")
+      for (int threads : {1, 2})
+        for (bool damped : {false, true}) {
+          packed_vs_gathered<float>(size, Precision::float32, threads, damped, samples);
+          packed_vs_gathered<double>(size, Precision::float64, threads, damped, samples);
+        }
+    if (only.empty() || only == "incidence") ok &= incidence_order(size, samples);
+  }
+  return ok ? 0 : 1;
+}
