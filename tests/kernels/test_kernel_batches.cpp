@@ -520,9 +520,13 @@ void check_mul_add_lanes() {
       EXPECT_EQ(std::memcmp(&r0[l], &s0, sizeof(T)), 0) << "lane " << l;
       EXPECT_EQ(std::memcmp(&r1[l], &s1, sizeof(T)), 0) << "lane " << l;
       EXPECT_EQ(std::memcmp(&r2[l], &s2, sizeof(T)), 0) << "lane " << l;
-      if (PLIANT_FMA) EXPECT_EQ(s0, std::fma(va[l], vb[l], vc[l]));
+      if (PLIANT_FMA) {
+        EXPECT_EQ(s0, std::fma(va[l], vb[l], vc[l]));
+      }
     }
-    if (round == 0) EXPECT_EQ(r1[W - 1], fused);
+    if (round == 0) {
+      EXPECT_EQ(r1[W - 1], fused);
+    }
   }
 }
 
