@@ -1,7 +1,8 @@
 // One step of every level (element pass -> gather + integrate -> prescribed motion), in the
-// order DESIGN.md §4 gives. Allocation-free: contexts are stack structs of pointers. Two
-// parallel loops per level: the element pass over tets, then the fused gather + integrate over
-// nodes (see docs/performance.md for why and for the grain sizes).
+// order DESIGN.md §4 gives. Allocation-free once the scratch lists have grown: contexts are
+// stack structs of pointers. The passes of a tick run as phases of one parallel region
+// (Executor::run_phases): for a single-level body the element pass over tets, then the fused
+// gather + integrate over nodes (see docs/performance.md for why and for the grain sizes).
 #include "simulation.hpp"
 
 #include <algorithm>
@@ -83,8 +84,9 @@ void Simulation<T>::prepare(double tick_dt) {
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
   pieces_.reserve(pieces);  // element pieces keep their address for the segments pointing at them
-  segments_.reserve(pieces + jobs_.size());
-  predicates_.reserve(2 * jobs_.size());
+  for (auto& list : tick_segments_) list.reserve(jobs_.size());
+  for (auto& list : tick_predicates_) list.reserve(jobs_.size());
+  tick_segments_[kPhaseElements].reserve(pieces);
 }
 
 namespace {
@@ -138,17 +140,26 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     L.window_dt += h;
   }
 
+  // The passes of the tick, phase by phase (TickPhase); every phase is planned before any runs
+  // (each depends only on which windows start and end now), and all run in one parallel region
+  // (Executor::run_phases): the threads meet at a barrier between phases instead of a fork-join
+  // per pass. Adding a pass to a phase is one push_back on its list.
+  for (auto& list : tick_segments_) list.clear();
+  for (auto& list : tick_predicates_) list.clear();
+  auto& ghosts = tick_segments_[kPhaseGhosts];
+  auto& elements = tick_segments_[kPhaseElements];
+  auto& nodes = tick_predicates_[kPhaseNodes];
+  auto& receive = tick_segments_[kPhaseReceive];
+  auto& integrate = tick_predicates_[kPhaseIntegrate];
+
   // A: ghosts take the state of their sources (coarser levels, which do not move in this window).
-  segments_.clear();
   for (std::size_t j = 0; j < jobs; ++j) {
     const Level<T>& L = level_of(j);
     if (due_[j].window_start && !L.ghosts.empty())
-      segments_.push_back({L.ghosts.size(), pass_grain(L.ghosts.size(), kNodeGrain), &run_ghosts<T>, &job_state_[j].gh});
+      ghosts.push_back({L.ghosts.size(), tick_grain(L.ghosts.size(), kTickNodeChunk, kNodeGrain, exec.threads()), &run_ghosts<T>, &job_state_[j].gh});
   }
-  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
 
   // B: the element passes due now: each level's slice of its stepped tets, cut at run boundaries.
-  segments_.clear();
   pieces_.clear();
   last_tick_tets_ = 0;
   for (std::size_t j = 0; j < jobs; ++j) {
@@ -163,16 +174,14 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       const std::size_t stop = std::min(e, js.run_start[k + 1]);
       pieces_.push_back({&js, runs[k].begin + (b - js.run_start[k])});
       const std::size_t n = stop - b;
-      segments_.push_back({n, pass_grain(n, kTetGrain), &run_piece<T>, &pieces_.back()});
+      elements.push_back({n, tick_grain(n, kTickTetChunk, kTetGrain, exec.threads()), &run_piece<T>, &pieces_.back()});
       b = stop;
       ++k;
     }
   }
-  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
 
   // C: forces on the nodes of the levels whose window ends; levels without ghosts or receivers
   // integrate at once (the fused pass of a single-level body), coupled ones wait for D.
-  predicates_.clear();
   bool coupled_due = false;
   for (std::size_t j = 0; j < jobs; ++j) {
     if (!due_[j].window_end) continue;
@@ -180,18 +189,17 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     LevelJobState<T>& js = job_state_[j];
     js.ic.dt = T(L.window_dt);
     const std::size_t n = L.node_count;
+    const std::size_t grain = tick_grain(n, kTickNodeChunk, kNodeGrain, exec.threads());
     if (L.coupled()) {
       coupled_due = true;
-      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather<T>, &js});
+      nodes.push_back({n, grain, &run_gather<T>, &js});
     } else {
-      predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_gather_integrate<T>, &js});
+      nodes.push_back({n, grain, &run_gather_integrate<T>, &js});
     }
   }
-  bool finite = predicates_.empty() || exec.run_segments_all(predicates_.data(), predicates_.size());
 
   if (coupled_due) {
     // D: the forces on the ghosts of the levels whose window ends go to their sources as impulses.
-    segments_.clear();
     for (std::size_t j = 0; j < jobs; ++j) {
       Level<T>& L = level_of(j);
       if (L.receivers.empty()) continue;
@@ -204,18 +212,21 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         js.rc.ghost_dt[m] = now ? T(body.levels[m].window_dt) : T(0);
         any |= now;
       }
-      if (any) segments_.push_back({L.receivers.size(), pass_grain(L.receivers.size(), kNodeGrain), &run_receive<T>, &js.rc});
+      if (any)
+        receive.push_back({L.receivers.size(), tick_grain(L.receivers.size(), kTickNodeChunk, kNodeGrain, exec.threads()), &run_receive<T>, &js.rc});
     }
-    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
     // E: the coupled levels whose window ends integrate, with the impulses they received.
-    predicates_.clear();
     for (std::size_t j = 0; j < jobs; ++j) {
       Level<T>& L = level_of(j);
       if (due_[j].window_end && L.coupled())
-        predicates_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_integrate<T>, &job_state_[j]});
+        integrate.push_back({L.node_count, tick_grain(L.node_count, kTickNodeChunk, kNodeGrain, exec.threads()), &run_integrate<T>, &job_state_[j]});
     }
-    if (!predicates_.empty()) finite &= exec.run_segments_all(predicates_.data(), predicates_.size());
   }
+
+  Executor::Phase phases[kTickPhases];
+  for (std::size_t p = 0; p < kTickPhases; ++p)
+    phases[p] = {tick_segments_[p].data(), tick_segments_[p].size(), tick_predicates_[p].data(), tick_predicates_[p].size()};
+  const bool finite = exec.run_phases(phases, kTickPhases);
 
   if (!finite) {
     for (std::size_t j = 0; j < jobs; ++j) {
@@ -239,17 +250,29 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   }
 
   // Static obstacles (kernels/obstacle_passes.hpp): free nodes of the levels whose window ends that
-  // entered one go back onto its surface. One region per obstacle: two planes may move one node.
-  for (const ObstacleDef& o : obstacles) {
-    segments_.clear();
-    for (std::size_t j = 0; j < jobs; ++j) {
-      if (!due_[j].window_end) continue;
-      Level<T>& L = level_of(j);
-      LevelJobState<T>& js = job_state_[j];
-      js.obstacle = half_space_context(L, o, bodies[std::size_t(js.body)].origin);
-      segments_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_obstacle<T>, &js.obstacle});
+  // entered one go back onto its surface. One phase per obstacle (two planes may move one node),
+  // all in one region. After the divergence check: its report names the node that diverged.
+  if (!obstacles.empty()) {
+    obstacle_ctx_.resize(obstacles.size() * jobs);  // grows once, then stays
+    obstacle_segments_.clear();
+    obstacle_phases_.clear();
+    for (std::size_t o = 0; o < obstacles.size(); ++o) {
+      const std::size_t first = obstacle_segments_.size();
+      for (std::size_t j = 0; j < jobs; ++j) {
+        if (!due_[j].window_end) continue;
+        Level<T>& L = level_of(j);
+        HalfSpaceContext<T>& c = obstacle_ctx_[o * jobs + j];
+        c = half_space_context(L, obstacles[o], bodies[std::size_t(job_state_[j].body)].origin);
+        obstacle_segments_.push_back({L.node_count, tick_grain(L.node_count, kTickNodeChunk, kNodeGrain, exec.threads()), &run_obstacle<T>, &c});
+      }
+      obstacle_phases_.push_back({nullptr, obstacle_segments_.size() - first, nullptr, 0});
     }
-    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
+    const Executor::Segment* next = obstacle_segments_.data();  // final now: no more push_back
+    for (Executor::Phase& ph : obstacle_phases_) {
+      ph.segments = next;
+      next += ph.segment_count;
+    }
+    exec.run_phases(obstacle_phases_.data(), obstacle_phases_.size());
   }
 
   // Tools (collision/tool_contact.hpp): free surface nodes of the levels whose window ends that

@@ -135,8 +135,12 @@ struct LevelJobState {
   IntegrateContext<T> ic;
   GhostContext<T> gh;
   ReceiveContext<T> rc;
-  HalfSpaceContext<T> obstacle;  // of the obstacle being resolved (set each tick)
 };
+
+// The phases of a tick, in the order they run (Simulation::step): A ghost refresh, B element
+// passes, C gathers (+ integration of uncoupled levels), D impulses to coarser levels,
+// E integration of coupled levels.
+enum TickPhase : std::size_t { kPhaseGhosts, kPhaseElements, kPhaseNodes, kPhaseReceive, kPhaseIntegrate, kTickPhases };
 
 // A piece of one level's element work on a tick: a stretch of consecutive stepped tets.
 template <class T>
@@ -189,8 +193,8 @@ class Simulation {
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
   // window starts), element passes (every level's due slice), gathers, impulses to the coarser
-  // levels, integration (levels whose window ends), prescribed motion; each phase is one parallel
-  // region. Returns false (and fills `where`) if a free node's state diverged.
+  // levels, integration (levels whose window ends): one parallel region with a barrier between
+  // phases; then obstacles, tools and prescribed motion. Returns false (and fills `where`) if a free node's state diverged.
   bool step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index);
   std::int64_t ticks() const { return tick_; }
   std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
@@ -223,8 +227,13 @@ class Simulation {
   std::vector<LevelDue> due_;
   std::vector<LevelJobState<T>> job_state_;
   std::vector<ElementPiece<T>> pieces_;
-  std::vector<Executor::Segment> segments_;
-  std::vector<Executor::PredicateSegment> predicates_;
+  // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
+  // largest tick, then stay).
+  std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;
+  std::array<std::vector<Executor::PredicateSegment>, kTickPhases> tick_predicates_;
+  std::vector<HalfSpaceContext<T>> obstacle_ctx_;  // [obstacle * jobs + job]
+  std::vector<Executor::Segment> obstacle_segments_;
+  std::vector<Executor::Phase> obstacle_phases_;  // one per obstacle
   std::vector<std::size_t> job_of_body_;  // first job of each body (its levels follow)
 };
 
