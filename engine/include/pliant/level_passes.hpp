@@ -20,23 +20,23 @@ inline constexpr std::size_t kSerialBelow = 2048;
 inline std::size_t pass_grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
 
 // The passes of a tick run as phases of one parallel region (Executor::run_phases, from
-// Executor::kRegionSerialBelow items on), whose threads claim chunks one at a time. About
-// kTickChunksPerThread chunks per thread and pass balance the threads (the last chunk leaves the
-// others idle for a small part of the pass) even when one joins late; no chunk is under
-// kTickTetChunk tets (~1.5 us of corotational float) or kTickNodeChunk nodes (~0.5 us), where
-// claiming it (an atomic on a shared cache line, ~0.1 us) would start to show, nor above the
-// grain of single loops. Chunks are whole vectors (kTickAlign items: 16 floats of AVX-512), so
-// only a segment's last chunk has a partial batch. On one thread, pass_grain: few chunks.
-// Kernels give the same bits however a range is cut (tests/kernels/test_kernel_batches.cpp).
+// Executor::kRegionSerialBelow items on), whose threads claim chunks one at a time. One chunk
+// per thread and pass (about n / threads items), but none under kTickTetChunk tets or
+// kTickNodeChunk nodes. Measured on a 2-vCPU Xeon (AVX-512), corotational float, 2 threads, idle
+// host, p50 per step: 4 chunks per thread capped at the loop grain were slower than the old
+// per-pass fork-joins (default scene 71-90 us against 64-65, 10k box 135 against 112), 1 per
+// thread faster (59-62 us; 10k box 106-110); docs/performance.md "Small bodies". Chunks are
+// whole vectors (kTickAlign items: 16 floats of AVX-512), so only a segment's last chunk has a
+// partial batch. On one thread, pass_grain. Kernels give the same bits however a range is cut
+// (tests/kernels/test_kernel_batches.cpp).
 inline constexpr std::size_t kTickTetChunk = 128;
 inline constexpr std::size_t kTickNodeChunk = 128;
-inline constexpr std::size_t kTickChunksPerThread = 4;
 inline constexpr std::size_t kTickAlign = 16;
+// n items of a pass; max_grain: the grain of the pass as a single loop (pass_grain on one thread).
 inline std::size_t tick_grain(std::size_t n, std::size_t min_chunk, std::size_t max_grain, int threads) {
   if (threads <= 1) return pass_grain(n, max_grain);
-  const std::size_t target = kTickChunksPerThread * std::size_t(threads);
-  const std::size_t even = (n + target - 1) / target;
-  const std::size_t g = even < min_chunk ? min_chunk : even > max_grain ? max_grain : even;
+  const std::size_t even = (n + std::size_t(threads) - 1) / std::size_t(threads);
+  const std::size_t g = even < min_chunk ? min_chunk : even;
   return (g + kTickAlign - 1) / kTickAlign * kTickAlign;
 }
 
