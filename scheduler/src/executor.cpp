@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <thread>
 
 #include <tbb/blocked_range.h>
 #include <tbb/info.h>
@@ -47,12 +48,62 @@ struct LoopSync {
 #endif
 };
 
+// One spin of a waiting loop: tells the core (and its hyper-thread twin) that we are spinning.
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+
+// Spins of ~40 ns (a pause is ~140 cycles on Skylake-X and later) before a waiting thread yields
+// its core: about 40 us, longer than any chunk of a tick (1-10 us) so that a phase boundary is
+// crossed without a system call, short enough that a thread waiting on one descheduled by the OS
+// (a shared machine) gives its core back.
+constexpr int kSpinsBeforeYield = 1024;
+
 }  // namespace
+
+// The barrier of run_phases. Not a sense-reversing barrier over a fixed team: TBB does not
+// promise that a parallel_for of `threads` iterations runs them at once (a worker may be asleep,
+// or busy in another arena), and a barrier that waits for a thread that never comes deadlocks.
+// Instead the chunks of all the phases are claimed in order from one counter (`next`) by
+// whichever threads are in the region, and a chunk of phase p waits until the count of ended
+// chunks (`done`) reaches the end of phase p-1. A chunk is run by the thread that claimed it,
+// which waits only for chunks of lower index, so the wait always ends; a thread that arrives late just finds less to do, and
+// one that never arrives leaves all the work to the others. done >= end(p-1) implies that every
+// chunk below end(p-1) ended: chunks of later phases wait for that count before they run, so
+// they cannot be counted before it is reached. The release increments of `done` and the acquire
+// load that sees the end of a phase order every write of that phase before the next one (TSan
+// sees these atomics). Each counter on its own cache line: the claims of one thread do not
+// disturb the other's wait.
+struct RegionCounters {
+  alignas(64) std::atomic<std::uint32_t> next{0};
+  alignas(64) std::atomic<std::uint32_t> done{0};
+  alignas(64) std::atomic<bool> all{true};
+};
 
 struct Executor::Arena {
   explicit Arena(int n) : arena(n) {}
   tbb::task_arena arena;
+  RegionCounters region;
 };
+
+namespace {
+
+// Waits until `done` reaches `need` (acquire: the writes of the chunks counted are visible after).
+void wait_until(const std::atomic<std::uint32_t>& done, std::uint32_t need) {
+  for (int spin = 0; done.load(std::memory_order_acquire) < need; ++spin) {
+    if (spin < kSpinsBeforeYield) {
+      cpu_relax();
+    } else {
+      std::this_thread::yield();
+    }
+  }
+}
+
+}  // namespace
 
 int Executor::default_threads() { return std::max(1, tbb::info::default_concurrency()); }
 
@@ -180,6 +231,93 @@ bool Executor::run_segments_all(const PredicateSegment* s, std::size_t count) {
   });
   sync.join();
   return all.load();
+}
+
+bool Executor::run_phases(const Phase* phases, std::size_t count) {
+  region_chunks_.clear();
+  phase_end_.clear();
+  std::size_t items = 0;
+  for (std::size_t p = 0; p < count; ++p) {
+    const Phase& ph = phases[p];
+    for (std::size_t i = 0; i < ph.segment_count; ++i) {
+      const Segment& sg = ph.segments[i];
+      const std::size_t grain = std::max<std::size_t>(sg.grain, 1);
+      items += sg.n;
+      for (std::size_t b = 0; b < sg.n; b += grain)
+        region_chunks_.push_back({sg.fn, nullptr, sg.ctx, Range{b, std::min(sg.n, b + grain)}});
+    }
+    for (std::size_t i = 0; i < ph.predicate_count; ++i) {
+      const PredicateSegment& sg = ph.predicates[i];
+      const std::size_t grain = std::max<std::size_t>(sg.grain, 1);
+      items += sg.n;
+      for (std::size_t b = 0; b < sg.n; b += grain)
+        region_chunks_.push_back({nullptr, sg.fn, sg.ctx, Range{b, std::min(sg.n, b + grain)}});
+    }
+    // Empty phases are dropped: they would only add a wait.
+    if (phase_end_.empty() ? !region_chunks_.empty() : region_chunks_.size() > phase_end_.back())
+      phase_end_.push_back(std::uint32_t(region_chunks_.size()));
+  }
+  if (region_chunks_.empty()) return true;
+  if (!arena_ || region_chunks_.size() == 1 || items < region_serial_below_) {
+    bool all = true;
+    for (const RegionChunk& c : region_chunks_) {
+      if (c.pred) {
+        all &= c.pred(c.ctx, c.range);
+      } else {
+        c.fn(c.ctx, c.range);
+      }
+    }
+    return all;
+  }
+  // One TBB fork-join for the whole region: arena.execute + a parallel_for of one iteration per
+  // thread, each running work_region until no chunk is left. TBB rather than threads of our own:
+  // its workers are already there (parallel_for and Embree's commits use them), a second pool
+  // would compete with them for the same 2 cores, and its join tells us when every thread has
+  // left the region (after which the counters and the scratch can be reused by the next tick).
+  // An iteration that starts after the others took every chunk returns at once.
+  RegionCounters& g = arena_->region;
+  g.next.store(0, std::memory_order_relaxed);
+  g.done.store(0, std::memory_order_relaxed);
+  g.all.store(true, std::memory_order_relaxed);
+  const RegionChunk* chunks = region_chunks_.data();
+  const std::uint32_t* ends = phase_end_.data();
+  const std::size_t phase_count = phase_end_.size();
+  const auto total = std::uint32_t(region_chunks_.size());
+  // What every thread of the region runs (the caller's included): claim the next chunk, wait
+  // for the phase before it to end, run it, count it.
+  const auto work_region = [&] {
+    std::size_t p = 0;  // phase of the chunk claimed: a thread's claims only grow, so p does too
+    bool all = true;
+    for (;;) {
+      const std::uint32_t i = g.next.fetch_add(1, std::memory_order_relaxed);
+      if (i >= total) break;
+      while (p < phase_count && i >= ends[p]) ++p;
+      if (p > 0) wait_until(g.done, ends[p - 1]);
+      const RegionChunk& c = chunks[i];
+      if (c.pred) {
+        all &= c.pred(c.ctx, c.range);
+      } else {
+        c.fn(c.ctx, c.range);
+      }
+      g.done.fetch_add(1, std::memory_order_release);
+    }
+    if (!all) g.all.store(false, std::memory_order_relaxed);
+  };
+  LoopSync sync;
+  sync.fork();
+  // The same blocked_range and partitioner as the other loops here: TBB's own bookkeeping of
+  // them is what tests/tsan-suppressions.txt names (libtbb is not built for TSan).
+  arena_->arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, std::size_t(threads_), 1),
+                      [&](const tbb::blocked_range<std::size_t>& r) {
+                        sync.chunk_begin();
+                        for (std::size_t i = r.begin(); i < r.end(); ++i) work_region();
+                        sync.chunk_end();
+                      },
+                      tbb::simple_partitioner());
+  });
+  sync.join();
+  return g.all.load(std::memory_order_relaxed);
 }
 
 }  // namespace pliant

@@ -19,6 +19,27 @@ inline constexpr std::size_t kNodeGrain = 1024;
 inline constexpr std::size_t kSerialBelow = 2048;
 inline std::size_t pass_grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
 
+// The passes of a tick run as phases of one parallel region (Executor::run_phases, from
+// Executor::kRegionSerialBelow items on), whose threads claim chunks one at a time. One chunk
+// per thread and pass (about n / threads items), but none under kTickTetChunk tets or
+// kTickNodeChunk nodes. Measured on a 2-vCPU Xeon (AVX-512), corotational float, 2 threads, idle
+// host, p50 per step: 4 chunks per thread capped at the loop grain were slower than the old
+// per-pass fork-joins (default scene 71-90 us against 64-65, 10k box 135 against 112), 1 per
+// thread faster (59-62 us; 10k box 106-110); docs/performance.md "Small bodies". Chunks are
+// whole vectors (kTickAlign items: 16 floats of AVX-512), so only a segment's last chunk has a
+// partial batch. On one thread, pass_grain. Kernels give the same bits however a range is cut
+// (tests/kernels/test_kernel_batches.cpp).
+inline constexpr std::size_t kTickTetChunk = 128;
+inline constexpr std::size_t kTickNodeChunk = 128;
+inline constexpr std::size_t kTickAlign = 16;
+// n items of a pass; max_grain: the grain of the pass as a single loop (pass_grain on one thread).
+inline std::size_t tick_grain(std::size_t n, std::size_t min_chunk, std::size_t max_grain, int threads) {
+  if (threads <= 1) return pass_grain(n, max_grain);
+  const std::size_t even = (n + std::size_t(threads) - 1) / std::size_t(threads);
+  const std::size_t g = even < min_chunk ? min_chunk : even;
+  return (g + kTickAlign - 1) / kTickAlign * kTickAlign;
+}
+
 // Pointers into L for the element passes. The kernels write only corner forces and the
 // corotational warm-start rotation, which are per-tet scratch of the level (hence the casts).
 template <class T>

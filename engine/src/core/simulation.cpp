@@ -1,7 +1,8 @@
 // One step of every level (element pass -> gather + integrate -> prescribed motion), in the
-// order DESIGN.md §4 gives. Allocation-free: contexts are stack structs of pointers. Two
-// parallel loops per level: the element pass over tets, then the fused gather + integrate over
-// nodes (see docs/performance.md for why and for the grain sizes).
+// order DESIGN.md §4 gives. Allocation-free once the scratch lists have grown: contexts are
+// stack structs of pointers. The passes of a tick run as phases of one parallel region
+// (Executor::run_phases): for a single-level body the element pass over tets, then the fused
+// gather + integrate over nodes (see docs/performance.md for why and for the grain sizes).
 #include "simulation.hpp"
 
 #include <algorithm>
@@ -107,8 +108,11 @@ void Simulation<T>::prepare(double tick_dt) {
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
   pieces_.reserve(pieces);  // element pieces keep their address for the segments pointing at them
-  segments_.reserve(pieces + node_pieces_.size() + jobs_.size());
-  predicates_.reserve(2 * node_pieces_.size() + jobs_.size());
+  for (auto& list : tick_segments_) list.reserve(jobs_.size());
+  for (auto& list : tick_predicates_) list.reserve(jobs_.size());
+  tick_segments_[kPhaseElements].reserve(pieces);
+  tick_predicates_[kPhaseNodes].reserve(node_pieces_.size());
+  tick_predicates_[kPhaseIntegrate].reserve(node_pieces_.size());
 }
 
 template <class T>
@@ -157,8 +161,8 @@ bool run_gather_integrate(const void* ctx, Range r) {
 }
 template <class T>
 void run_obstacle(const void* ctx, Range r) {
-  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
-  resolve_half_space(p.job->obstacle, nodes_of(p, r));
+  const auto& p = *static_cast<const ObstaclePiece<T>*>(ctx);
+  resolve_half_space(*p.ctx, Range{p.first + r.begin, p.first + r.end});
 }
 template <class T>
 bool run_integrate(const void* ctx, Range r) {
@@ -183,27 +187,37 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     L.window_dt += h;
   }
 
+  // The passes of the tick, phase by phase (TickPhase); every phase is planned before any runs
+  // (each depends only on which windows start and end now), and all run in one parallel region
+  // (Executor::run_phases): the threads meet at a barrier between phases instead of a fork-join
+  // per pass. Adding a pass to a phase is one push_back on its list.
+  for (auto& list : tick_segments_) list.clear();
+  for (auto& list : tick_predicates_) list.clear();
+  auto& ghosts = tick_segments_[kPhaseGhosts];
+  auto& elements = tick_segments_[kPhaseElements];
+  auto& nodes = tick_predicates_[kPhaseNodes];
+  auto& receive = tick_segments_[kPhaseReceive];
+  auto& integrate = tick_predicates_[kPhaseIntegrate];
+
   // A: ghosts take the state of their sources (coarser levels, which do not move in this window).
-  segments_.clear();
   for (std::size_t j = 0; j < jobs; ++j) {
     const Level<T>& L = level_of(j);
     if (due_[j].window_start && !L.ghosts.empty())
-      segments_.push_back({L.ghosts.size(), pass_grain(L.ghosts.size(), kNodeGrain), &run_ghosts<T>, &job_state_[j].gh});
+      ghosts.push_back({L.ghosts.size(), tick_grain(L.ghosts.size(), kTickNodeChunk, kNodeGrain, exec.threads()), &run_ghosts<T>, &job_state_[j].gh});
   }
-  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
 
   // B: the element passes due now: each level's slice of its stepped tets, cut at run boundaries.
-  // First the positions of those levels, interleaved for the passes' corner loads where that pays.
-  segments_.clear();
+  // First the positions of those levels, interleaved for the passes' corner loads where that pays
+  // (a phase of its own, between the ghosts, which it packs too, and the element passes).
+  auto& pack = tick_segments_[kPhasePack];
   for (std::size_t j = 0; j < jobs; ++j) {
     Level<T>& L = level_of(j);
     LevelJobState<T>& js = job_state_[j];
-    const bool pack = due_[j].begin < due_[j].end && pack_pays(L, due_[j].end - due_[j].begin);
-    use_packed(js.ec, js.pack, pack);
-    if (pack) segments_.push_back({L.node_count, pass_grain(L.node_count, kNodeGrain), &run_pack<T>, &js.pack});
+    const bool packed = due_[j].begin < due_[j].end && pack_pays(L, due_[j].end - due_[j].begin);
+    use_packed(js.ec, js.pack, packed);
+    if (packed)
+      pack.push_back({L.node_count, tick_grain(L.node_count, kTickNodeChunk, kNodeGrain, exec.threads()), &run_pack<T>, &js.pack});
   }
-  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
-  segments_.clear();
   pieces_.clear();
   last_tick_tets_ = 0;
   for (std::size_t j = 0; j < jobs; ++j) {
@@ -218,16 +232,14 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       const std::size_t stop = std::min(e, js.run_start[k + 1]);
       pieces_.push_back({&js, runs[k].begin + (b - js.run_start[k])});
       const std::size_t n = stop - b;
-      segments_.push_back({n, pass_grain(n, kTetGrain), &run_piece<T>, &pieces_.back()});
+      elements.push_back({n, tick_grain(n, kTickTetChunk, kTetGrain, exec.threads()), &run_piece<T>, &pieces_.back()});
       b = stop;
       ++k;
     }
   }
-  if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
 
   // C: forces on the nodes of the levels whose window ends; levels without ghosts or receivers
   // integrate at once (the fused pass of a single-level body), coupled ones wait for D.
-  predicates_.clear();
   bool coupled_due = false;
   for (std::size_t j = 0; j < jobs; ++j) {
     if (!due_[j].window_end) continue;
@@ -237,14 +249,13 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     coupled_due |= L.coupled();
     for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
       const std::size_t n = node_pieces_[q].count;
-      predicates_.push_back({n, pass_grain(n, kNodeGrain), L.coupled() ? &run_gather<T> : &run_gather_integrate<T>, &node_pieces_[q]});
+      nodes.push_back({n, tick_grain(n, kTickNodeChunk, kNodeGrain, exec.threads()),
+                       L.coupled() ? &run_gather<T> : &run_gather_integrate<T>, &node_pieces_[q]});
     }
   }
-  bool finite = predicates_.empty() || exec.run_segments_all(predicates_.data(), predicates_.size());
 
   if (coupled_due) {
     // D: the forces on the ghosts of the levels whose window ends go to their sources as impulses.
-    segments_.clear();
     for (std::size_t j = 0; j < jobs; ++j) {
       Level<T>& L = level_of(j);
       if (L.receivers.empty()) continue;
@@ -257,22 +268,25 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         js.rc.ghost_dt[m] = now ? T(body.levels[m].window_dt) : T(0);
         any |= now;
       }
-      if (any) segments_.push_back({L.receivers.size(), pass_grain(L.receivers.size(), kNodeGrain), &run_receive<T>, &js.rc});
+      if (any)
+        receive.push_back({L.receivers.size(), tick_grain(L.receivers.size(), kTickNodeChunk, kNodeGrain, exec.threads()), &run_receive<T>, &js.rc});
     }
-    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
     // E: the coupled levels whose window ends integrate, with the impulses they received.
-    predicates_.clear();
     for (std::size_t j = 0; j < jobs; ++j) {
       Level<T>& L = level_of(j);
       if (!due_[j].window_end || !L.coupled()) continue;
       const LevelJobState<T>& js = job_state_[j];
       for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
         const std::size_t n = node_pieces_[q].count;
-        predicates_.push_back({n, pass_grain(n, kNodeGrain), &run_integrate<T>, &node_pieces_[q]});
+        integrate.push_back({n, tick_grain(n, kTickNodeChunk, kNodeGrain, exec.threads()), &run_integrate<T>, &node_pieces_[q]});
       }
     }
-    if (!predicates_.empty()) finite &= exec.run_segments_all(predicates_.data(), predicates_.size());
   }
+
+  Executor::Phase phases[kTickPhases];
+  for (std::size_t p = 0; p < kTickPhases; ++p)
+    phases[p] = {tick_segments_[p].data(), tick_segments_[p].size(), tick_predicates_[p].data(), tick_predicates_[p].size()};
+  const bool finite = exec.run_phases(phases, kTickPhases);
 
   if (!finite) {
     for (std::size_t j = 0; j < jobs; ++j) {
@@ -296,20 +310,37 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   }
 
   // Static obstacles (kernels/obstacle_passes.hpp): free nodes of the levels whose window ends that
-  // entered one go back onto its surface. One region per obstacle: two planes may move one node.
-  for (const ObstacleDef& o : obstacles) {
-    segments_.clear();
-    for (std::size_t j = 0; j < jobs; ++j) {
-      if (!due_[j].window_end) continue;
-      Level<T>& L = level_of(j);
-      LevelJobState<T>& js = job_state_[j];
-      js.obstacle = half_space_context(L, o, bodies[std::size_t(js.body)].origin);
-      for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
-        const std::size_t n = node_pieces_[q].count;
-        segments_.push_back({n, pass_grain(n, kNodeGrain), &run_obstacle<T>, &node_pieces_[q]});
+  // entered one go back onto its surface. One phase per obstacle (two planes may move one node),
+  // all in one region, over the levels' node pieces. After the divergence check: its report names
+  // the node that diverged.
+  if (!obstacles.empty()) {
+    obstacle_ctx_.resize(obstacles.size() * jobs);  // grows once, then stays
+    obstacle_pieces_.clear();
+    obstacle_pieces_.reserve(obstacles.size() * node_pieces_.size());  // addresses kept: segments point at them
+    obstacle_segments_.clear();
+    obstacle_phases_.clear();
+    for (std::size_t o = 0; o < obstacles.size(); ++o) {
+      const std::size_t first = obstacle_segments_.size();
+      for (std::size_t j = 0; j < jobs; ++j) {
+        if (!due_[j].window_end) continue;
+        Level<T>& L = level_of(j);
+        HalfSpaceContext<T>& c = obstacle_ctx_[o * jobs + j];
+        c = half_space_context(L, obstacles[o], bodies[std::size_t(job_state_[j].body)].origin);
+        const LevelJobState<T>& js = job_state_[j];
+        for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+          const std::size_t n = node_pieces_[q].count;
+          obstacle_pieces_.push_back({&c, node_pieces_[q].first});
+          obstacle_segments_.push_back({n, tick_grain(n, kTickNodeChunk, kNodeGrain, exec.threads()), &run_obstacle<T>, &obstacle_pieces_.back()});
+        }
       }
+      obstacle_phases_.push_back({nullptr, obstacle_segments_.size() - first, nullptr, 0});
     }
-    if (!segments_.empty()) exec.run_segments(segments_.data(), segments_.size());
+    const Executor::Segment* next = obstacle_segments_.data();  // final now: no more push_back
+    for (Executor::Phase& ph : obstacle_phases_) {
+      ph.segments = next;
+      next += ph.segment_count;
+    }
+    exec.run_phases(obstacle_phases_.data(), obstacle_phases_.size());
   }
 
   // Tools (collision/tool_contact.hpp): free surface nodes of the levels whose window ends that

@@ -136,13 +136,18 @@ struct LevelJobState {
   IntegrateContext<T> ic;
   GhostContext<T> gh;
   ReceiveContext<T> rc;
-  HalfSpaceContext<T> obstacle;  // of the obstacle being resolved (set each tick)
   // The node passes' pieces (indices into Simulation's node pieces): the level's nodes that are not
   // inactive, as runs. A multiresolution level simulates part of its nodes; its gathers,
   // integration and obstacles cost what it simulates, not the whole level (a 49k-tet finest level
   // stepping 86 tets near a tool gathered all its 10k nodes every tick: as much time as its tets).
   std::size_t first_node_piece = 0, end_node_piece = 0;
 };
+
+// The phases of a tick, in the order they run (Simulation::step): A ghost refresh, the positions
+// packed per node for the element passes that read them (after the ghosts: they pack ghosts too), B element
+// passes, C gathers (+ integration of uncoupled levels), D impulses to coarser levels,
+// E integration of coupled levels.
+enum TickPhase : std::size_t { kPhaseGhosts, kPhasePack, kPhaseElements, kPhaseNodes, kPhaseReceive, kPhaseIntegrate, kTickPhases };
 
 // A piece of one level's element work on a tick: a stretch of consecutive stepped tets.
 template <class T>
@@ -158,6 +163,13 @@ template <class T>
 struct NodePiece {
   const LevelJobState<T>* job = nullptr;
   std::size_t first = 0, count = 0;
+};
+
+// A node piece of one obstacle's phase: the obstacle's context for the piece's level.
+template <class T>
+struct ObstaclePiece {
+  const HalfSpaceContext<T>* ctx = nullptr;
+  std::size_t first = 0;
 };
 
 // A level's positions and velocities with its ghosts where their sources are now (a level's own
@@ -204,8 +216,8 @@ class Simulation {
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
   // window starts), element passes (every level's due slice), gathers, impulses to the coarser
-  // levels, integration (levels whose window ends), prescribed motion; each phase is one parallel
-  // region. Returns false (and fills `where`) if a free node's state diverged.
+  // levels, integration (levels whose window ends): one parallel region with a barrier between
+  // phases; then obstacles, tools and prescribed motion. Returns false (and fills `where`) if a free node's state diverged.
   bool step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index);
   std::int64_t ticks() const { return tick_; }
   std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
@@ -240,8 +252,14 @@ class Simulation {
   std::vector<LevelJobState<T>> job_state_;
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
-  std::vector<Executor::Segment> segments_;
-  std::vector<Executor::PredicateSegment> predicates_;
+  // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
+  // largest tick, then stay).
+  std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;
+  std::array<std::vector<Executor::PredicateSegment>, kTickPhases> tick_predicates_;
+  std::vector<HalfSpaceContext<T>> obstacle_ctx_;  // [obstacle * jobs + job]
+  std::vector<ObstaclePiece<T>> obstacle_pieces_;   // the node pieces of each obstacle's phase
+  std::vector<Executor::Segment> obstacle_segments_;
+  std::vector<Executor::Phase> obstacle_phases_;  // one per obstacle
   std::vector<std::size_t> job_of_body_;  // first job of each body (its levels follow)
 };
 

@@ -52,6 +52,34 @@ class Executor {
   };
   bool run_segments_all(const PredicateSegment* segments, std::size_t count);
 
+  // A tick as one parallel region: the phases run in order, the segments of one phase at once
+  // (they must write disjoint outputs), and every chunk of phase p has ended, on every thread,
+  // before a chunk of phase p+1 begins (its writes are then visible). Between phases the
+  // threads stay in the region and wait at a barrier instead of joining and forking again: one
+  // fork-join per tick instead of one per pass, which is what makes 2 threads pay on small
+  // bodies (1k-4k tets, tens of us per tick). Segment i of a phase is cut into chunks of
+  // `grain` items as in run_segments; which thread runs which chunk does not matter (disjoint
+  // outputs), so results are the same bits for any thread count. Returns the AND of every
+  // predicate chunk (true if there is none). No allocation once the scratch has grown to the
+  // largest tick, no lock, no throw, no virtual call.
+  struct Phase {
+    const Segment* segments = nullptr;
+    std::size_t segment_count = 0;
+    const PredicateSegment* predicates = nullptr;
+    std::size_t predicate_count = 0;
+  };
+  bool run_phases(const Phase* phases, std::size_t count);
+  // Below this many items (tets + nodes + ghosts ...) in all the phases of a region, run_phases
+  // runs them on the calling thread. 1024 items are 10-15 us of corotational float work, several
+  // times the one fork-join of a region (a few us); the old per-pass fork-joins made a 1k-tet
+  // body 1.4x slower on 2 threads than on 1, whence the former 2048 per loop. A 1k-tet box
+  // (1,152 tets + 325 nodes) runs in parallel. Not re-measured as a crossover: the 2-vCPU host
+  // was loaded by other builds when this landed (docs/performance.md, "Small bodies").
+  static constexpr std::size_t kRegionSerialBelow = 1024;
+  // Another threshold for this executor's regions (0: every region with two chunks or more runs
+  // in parallel; tests use it to run the parallel path on small problems).
+  void set_region_serial_below(std::size_t items) { region_serial_below_ = items; }
+
   // Calls fn(ctx) on this executor's threads, isolated: TBB loops that fn runs (a library using
   // TBB, such as Embree's BVH commit) use at most threads() threads and never pick up other work.
   void run_isolated(void (*fn)(void*), void* ctx);
@@ -76,6 +104,17 @@ class Executor {
   static constexpr std::size_t kSerialTotal = 2048;
   void split(std::size_t count, std::size_t (*n)(const void*, std::size_t), std::size_t (*grain)(const void*, std::size_t),
              const void* segments);
+
+  // Scratch of run_phases: every chunk of every phase in order, and where each phase ends.
+  struct RegionChunk {
+    void (*fn)(const void*, Range);  // a Segment's, or null
+    bool (*pred)(const void*, Range);  // a PredicateSegment's, or null
+    const void* ctx;
+    Range range;
+  };
+  std::vector<RegionChunk> region_chunks_;
+  std::vector<std::uint32_t> phase_end_;  // one past each phase's last chunk in region_chunks_
+  std::size_t region_serial_below_ = kRegionSerialBelow;
 
   struct Arena;
   int threads_ = 1;
