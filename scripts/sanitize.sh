@@ -29,7 +29,7 @@ configure() {  # build dir, compiler, sanitizer flags
 }
 
 # The threaded tests: every test that runs a world on 2 or more threads.
-tsan_tests='Determinism|ThreadCount|Threads\.|SameBits|Stress\.|AnyThreadCount|HapticLink|PressHold'
+tsan_tests='Determinism|ThreadCount|Threads\.|SameBits|Stress\.|AnyThreadCount|HapticLink|PressHold|RunPhases'
 
 status=0
 if [ "$what" = asan ] || [ "$what" = all ]; then
@@ -47,7 +47,7 @@ fi
 if [ "$what" = tsan ] || [ "$what" = all ]; then
   configure build-tsan clang++-14 -fsanitize=thread -DPLIANT_NATIVE=OFF
   start=$(date +%s)
-  nice -n 10 cmake --build build-tsan -j2 --target test_world test_multilevel_step test_obstacles test_stability \
+  nice -n 10 cmake --build build-tsan -j2 --target test_world test_multilevel_step test_obstacles test_stability test_executor \
     test_haptic_link test_tool_response
   echo "tsan: build $(( $(date +%s) - start )) s"
   start=$(date +%s)
