@@ -70,12 +70,12 @@ class Executor {
   };
   bool run_phases(const Phase* phases, std::size_t count);
   // Below this many items (tets + nodes + ghosts ...) in all the phases of a region, run_phases
-  // runs them on the calling thread. 1024 items are 10-15 us of corotational float work, several
-  // times the one fork-join of a region (a few us); the old per-pass fork-joins made a 1k-tet
-  // body 1.4x slower on 2 threads than on 1, whence the former 2048 per loop. A 1k-tet box
-  // (1,152 tets + 325 nodes) runs in parallel. Not re-measured as a crossover: the 2-vCPU host
-  // was loaded by other builds when this landed (docs/performance.md, "Small bodies").
-  static constexpr std::size_t kRegionSerialBelow = 1024;
+  // runs them on the calling thread. Measured on a quiet 2-vCPU Xeon (pliant bench, three runs,
+  // docs/performance.md "Small bodies"): with the region parallel from 1,024 items, a 1,152-tet
+  // box (about 1,500 items) stepped in 20.6 us on 2 threads against 16.9 on 1 (the region's
+  // fork-join and phase waits cost more than half its work), a 2,016-tet box (about 2,500 items)
+  // in 25.8 against 29.2: the crossover lies between, hence 2048.
+  static constexpr std::size_t kRegionSerialBelow = 2048;
   // Another threshold for this executor's regions (0: every region with two chunks or more runs
   // in parallel; tests use it to run the parallel path on small problems).
   void set_region_serial_below(std::size_t items) { region_serial_below_ = items; }
