@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "pliant/aligned.hpp"
+#include "pliant/corner_forces.hpp"
 #include "pliant/defs.hpp"
 #include "pliant/kernels/node_passes.hpp"
 #include "pliant/kernels/range.hpp"
@@ -36,7 +37,7 @@ struct Level {
   AlignedVector<T> volume;           // rest volume (m^3)
   AlignedVector<T> grad[9];          // rest gradients of phi_1..3 (1/m), rows of Dm^-1
   AlignedVector<T> rotation[4];      // corotational: element rotation quaternion (w,x,y,z); empty otherwise
-  AlignedVector<T> corner_force[12]; // per-tet corner forces of the element pass (N)
+  CornerForceArrays<T> corner_force; // per-tet corner forces of the element pass (N), [3c + k][tet], one block
 
   // ---- incidence and surface ----
   AlignedVector<std::int32_t> incidence_offsets;  // node_count + 1

@@ -192,7 +192,7 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   for (int a = 0; a < 4; ++a) L.tet[a].resize(nt);
   L.volume.resize(nt);
   for (auto& g : L.grad) g.resize(nt);
-  for (auto& c : L.corner_force) c.assign(nt, T(0));
+  L.corner_force.assign(nt, T(0));
   std::vector<double> mass(nn, 0.0);
   double h_min = 1e300;
   for (std::size_t t = 0; t < nt; ++t) {
