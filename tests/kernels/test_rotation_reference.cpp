@@ -107,6 +107,27 @@ detail::Mat3<T> to_kernel(const Mat& F) {
 
 // Largest entry of R(q) - reference over all cases, for the scalar code and for the vector lanes
 // (W cases per batch, every lane a different case).
+// The vector lanes on the W cases from b0 (the last case repeated past the end): each lane starts
+// at its case's start; q and R receive the quaternion and the rotation extract_rotation_batches
+// leaves there.
+template <class T>
+void rotate_lanes(const std::vector<Case>& cases, std::size_t b0, typename simd::Pack<T>::V (&q)[1][4],
+                  detail::Mat3<typename simd::Pack<T>::V> (&R)[1]) {
+  using V = typename simd::Pack<T>::V;
+  detail::Mat3<V> A[1] = {};
+  for (int l = 0; l < simd::Pack<T>::W; ++l) {
+    const Case& c = cases[std::min(cases.size() - 1, b0 + std::size_t(l))];
+    const detail::Mat3<T> m = to_kernel<T>(c.F);
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) A[0].m[r][k][l] = m.m[r][k];
+    q[0][0][l] = T(c.start.w());
+    q[0][1][l] = T(c.start.x());
+    q[0][2][l] = T(c.start.y());
+    q[0][3][l] = T(c.start.z());
+  }
+  detail::extract_rotation_batches<T, 1>(A, q, R);
+}
+
 template <class T>
 void check_against_reference(double tolerance, double measured) {
   using V = typename simd::Pack<T>::V;
@@ -117,20 +138,9 @@ void check_against_reference(double tolerance, double measured) {
   std::string worst_case;
   std::vector<std::array<T, 4>> lane_q(cases.size());
   for (std::size_t b0 = 0; b0 < cases.size(); b0 += W) {
-    detail::Mat3<V> A[1] = {};
     V q[1][4] = {};
-    for (int l = 0; l < W; ++l) {
-      const Case& c = cases[std::min(cases.size() - 1, b0 + std::size_t(l))];
-      const detail::Mat3<T> m = to_kernel<T>(c.F);
-      for (int r = 0; r < 3; ++r)
-        for (int k = 0; k < 3; ++k) A[0].m[r][k][l] = m.m[r][k];
-      q[0][0][l] = T(c.start.w());
-      q[0][1][l] = T(c.start.x());
-      q[0][2][l] = T(c.start.y());
-      q[0][3][l] = T(c.start.z());
-    }
     detail::Mat3<V> R[1];
-    detail::extract_rotation_batches<T, 1>(A, q, R);
+    rotate_lanes<T>(cases, b0, q, R);
     for (int l = 0; l < W && b0 + std::size_t(l) < cases.size(); ++l)
       for (int k = 0; k < 4; ++k) lane_q[b0 + std::size_t(l)][std::size_t(k)] = q[0][k][l];
   }
@@ -199,20 +209,9 @@ void check_warm_starts(double tolerance, double measured) {
   double worst = 0;
   std::string worst_case;
   for (std::size_t b0 = 0; b0 < cases.size(); b0 += W) {
-    detail::Mat3<V> A[1] = {};
     V q[1][4] = {};
-    for (int l = 0; l < W; ++l) {
-      const Case& c = cases[std::min(cases.size() - 1, b0 + std::size_t(l))];
-      const detail::Mat3<T> m = to_kernel<T>(c.F);
-      for (int r = 0; r < 3; ++r)
-        for (int k = 0; k < 3; ++k) A[0].m[r][k][l] = m.m[r][k];
-      q[0][0][l] = T(c.start.w());
-      q[0][1][l] = T(c.start.x());
-      q[0][2][l] = T(c.start.y());
-      q[0][3][l] = T(c.start.z());
-    }
     detail::Mat3<V> R[1];
-    detail::extract_rotation_batches<T, 1>(A, q, R);
+    rotate_lanes<T>(cases, b0, q, R);
     for (int l = 0; l < W && b0 + std::size_t(l) < cases.size(); ++l) {
       const Case& c = cases[b0 + std::size_t(l)];
       T qs[4] = {T(c.start.w()), T(c.start.x()), T(c.start.y()), T(c.start.z())};
