@@ -558,20 +558,32 @@ void use_current_state(const SimBody<T>& body, const Level<T>& L, ElementContext
 }
 }  // namespace
 
+// Adds the elastic energy of the tets level L steps (all, for one level) to `sum` (J), tet by tet
+// in a fixed order, so the sum is the same bits whether exec (may be null: on this thread) splits
+// the energy pass or not.
+template <class T>
+void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, const Level<T>& L, double& sum) const {
+  scratch.resize(L.tet_count);
+  ElementContext<T> ec = element_context(L);
+  CurrentState<T> now;
+  use_current_state(body, L, ec, now);
+  const EnergyPass<T> pass = energy_kernel<T>(L.model);
+  double* out = scratch.data();
+  for (const Range& run : L.stepped_runs) {
+    if (exec)
+      exec->parallel_for(run.size(), kTetGrain, [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
+    else
+      pass(ec, run, out);
+    for (std::size_t t = run.begin; t < run.end; ++t) sum += scratch[t];
+  }
+}
+
 // Kinetic (1/2 m v^2 of the free nodes) + elastic energy of one body, in a fixed order (J).
 template <class T>
 double Simulation<T>::body_energy(const SimBody<T>& body) const {
   double e = 0;
   for (const Level<T>& L : body.levels) {
-    scratch.resize(L.tet_count);
-    ElementContext<T> ec = element_context(L);
-    CurrentState<T> now;
-    use_current_state(body, L, ec, now);
-    const EnergyPass<T> pass = energy_kernel<T>(L.model);
-    for (const Range& run : L.stepped_runs) {
-      pass(ec, run, scratch.data());
-      for (std::size_t t = run.begin; t < run.end; ++t) e += scratch[t];
-    }
+    add_elastic_energy(nullptr, body, L, e);
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree)
         for (int k = 0; k < 3; ++k) e += 0.5 * double(L.mass[n]) * double(L.v[k][n]) * double(L.v[k][n]);
@@ -611,18 +623,7 @@ template <class T>
 void Simulation<T>::elastic_energies(Executor& exec, double& elastic) const {
   elastic = 0;
   for (const SimBody<T>& body : bodies)
-    for (const Level<T>& L : body.levels) {
-      scratch.resize(L.tet_count);
-      ElementContext<T> ec = element_context(L);
-      CurrentState<T> now;
-      use_current_state(body, L, ec, now);
-      const EnergyPass<T> pass = energy_kernel<T>(L.model);
-      double* out = scratch.data();
-      for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)
-        exec.parallel_for(run.size(), kTetGrain, [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
-        for (std::size_t t = run.begin; t < run.end; ++t) elastic += scratch[t];  // fixed order
-      }
-    }
+    for (const Level<T>& L : body.levels) add_elastic_energy(&exec, body, L, elastic);
 }
 
 template <class T>

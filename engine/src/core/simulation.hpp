@@ -225,6 +225,7 @@ class Simulation {
 
   void elastic_energies(Executor& exec, double& elastic) const;
   double body_energy(const SimBody<T>& body) const;    // kinetic + elastic of one body (J)
+  void add_elastic_energy(Executor* exec, const SimBody<T>& body, const Level<T>& L, double& sum) const;
   void take_energy(SimBody<T>& body, double excess);   // from its motion about its mean velocity
   // Kinetic energy (J) at the time of the positions: 1/2 sum m |v_c|^2 with, on free nodes,
   // v_c = v + (h/2) a(x, v), the mean of the stored velocity (v_{n+1/2}: the one that moved x_n to
