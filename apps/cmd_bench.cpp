@@ -29,7 +29,7 @@ namespace pliant::cli {
 namespace {
 
 struct Options {
-  bool quick = false, json = false, no_scenes = false;
+  bool quick = false, json = false, no_scenes = false, scenes_only = false;
   std::optional<int> threads;
   std::string csv, scenes;
   double max_wait = 30;
@@ -86,7 +86,9 @@ int command_bench(const Options& o) {
   }
   if (!(o.max_wait >= 0)) throw InputError(fmt::format("--max-wait must be >= 0 (s), got {}", o.max_wait));
   so.max_wait_s = o.max_wait;
+  if (o.no_scenes && o.scenes_only) throw InputError("--no-scenes and --scenes-only exclude each other");
   so.scenes = !o.no_scenes;
+  so.kernels = !o.scenes_only;
   so.scenes_dir = o.scenes;
   if (!o.scenes.empty() && !std::filesystem::exists(std::filesystem::path(o.scenes) / "cantilever.json"))
     throw InputError(fmt::format("--scenes {}: no cantilever.json there", o.scenes));
@@ -142,6 +144,7 @@ Command add_bench_command(CLI::App& app) {
   sub->add_option("--max-wait", o->max_wait, "Seconds to wait, at each stage, for other processes to go quiet")
       ->capture_default_str();
   sub->add_flag("--no-scenes", o->no_scenes, "Kernels and steps only");
+  sub->add_flag("--scenes-only", o->scenes_only, "Machine limits and scenes only (the small bodies, the default scene): a few minutes");
 #ifdef PLIANT_HAS_BENCH_SUITE
   return {sub, [o] { return command_bench(*o); }};
 #else

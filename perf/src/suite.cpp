@@ -386,6 +386,7 @@ void run_suite(const SuiteOptions& o, const std::function<void(const Record&)>& 
   // ---- kernels on box meshes, grid order ----
   std::vector<BoxSize> sizes = standard_sizes();
   if (o.quick) sizes.resize(2);  // 1k, 10k
+  if (!o.kernels) sizes.clear();
   // Float and double of a model back to back, and 1 then 2 threads on the same world, so that
   // the ratios compare runs minutes apart at most.
   for (const auto& sz : sizes) {
@@ -410,7 +411,7 @@ void run_suite(const SuiteOptions& o, const std::function<void(const Record&)>& 
   }
 
   // ---- memory order ----
-  {
+  if (o.kernels) {
     const BoxSize& sz = standard_sizes()[o.quick ? 2 : 3];  // 100k (quick) or 1M
     s.gate();
     for (Order order : {Order::grid, Order::random, Order::renumbered})

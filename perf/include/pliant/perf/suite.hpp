@@ -45,6 +45,7 @@ struct SuiteOptions {
   double max_wait_s = 30;       // waiting for the machine to be idle, per gate
   double idle_threshold = 0.2;  // cores used by others below which the machine counts as idle
   bool scenes = true;
+  bool kernels = true;           // machine limits are always measured; false skips the boxes' kernels, steps and orders
   std::function<void(const std::string&)> progress;  // one line per stage, or empty
 };
 
