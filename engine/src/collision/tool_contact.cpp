@@ -143,6 +143,24 @@ bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeD
 template <class T>
 bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& shape, const ToolPose& to,
                           const Vec3d& origin, double dt, Executor& exec, std::string& error) {
+  // A level that steps no tet (a multiresolution level where others are active) has no simulated
+  // surface: no triangle there has every corner simulated and one free (step 3), so the tool
+  // touches nothing on it. Its contact pass is skipped (it would read every surface vertex for the
+  // BVH's margin check: on the 50k-tet organ at its coarsest, a third of the stepping time); the BVH
+  // is checked again at the level's next query.
+  if (L.stepped_count == 0) {
+    for (std::int32_t i : lc.held_vertices) {
+      lc.held[std::size_t(i)] = 0;
+      lc.push[std::size_t(i)] = {0, 0, 0};
+    }
+    lc.held_vertices.clear();
+    lc.hits.clear();
+    lc.force = {0, 0, 0};
+    lc.contacts = 0;
+    lc.max_penetration = 0;
+    lc.from = to;
+    return true;
+  }
   if (!find_tool_contacts(lc, L, shape, lc.from, to, origin, exec, error)) return false;
   Vec3d wa0, wb0, wa1, wb1;
   tool_axis(shape, lc.from, wa0, wb0);

@@ -31,18 +31,42 @@ std::array<double, 9> deformation_gradient(const Level<T>& L, std::size_t t, con
   return F;
 }
 
-// Position and velocity of every node of every level now (ghosts where their sources are), in double.
+// Position and velocity of every node of every level now (ghosts where their sources are, as
+// current_state gives them: summed in double, rounded to T), in double, into x and v (3 arrays per
+// level, reused: no allocation once sized).
 template <class T>
 void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std::vector<std::vector<double>>& v) {
   const std::size_t n = body.levels.size();
-  x.assign(3 * n, {});
-  v.assign(3 * n, {});
+  x.resize(3 * n);
+  v.resize(3 * n);
   for (std::size_t l = 0; l < n; ++l) {
-    CurrentState<T> cs;
-    current_state(body, body.levels[l], cs);
-    for (int k = 0; k < 3; ++k) {
-      x[3 * l + std::size_t(k)].assign(cs.x[k].begin(), cs.x[k].end());
-      v[3 * l + std::size_t(k)].assign(cs.v[k].begin(), cs.v[k].end());
+    const Level<T>& L = body.levels[l];
+    for (std::size_t k = 0; k < 3; ++k) {
+      auto& xk = x[3 * l + k];
+      auto& vk = v[3 * l + k];
+      xk.resize(L.node_count);
+      vk.resize(L.node_count);
+      for (std::size_t i = 0; i < L.node_count; ++i) {
+        xk[i] = double(L.x[k][i]);
+        vk[i] = double(L.v[k][i]);
+      }
+    }
+    for (std::size_t g = 0; g < L.ghosts.size(); ++g) {
+      double gx[3] = {0, 0, 0}, gv[3] = {0, 0, 0};
+      for (auto e = L.ghost_offsets[g]; e < L.ghost_offsets[g + 1]; ++e) {
+        const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
+        const auto src = std::size_t(L.ghost_source_node[std::size_t(e)]);
+        const double w = L.ghost_weight[std::size_t(e)];
+        for (int k = 0; k < 3; ++k) {
+          gx[k] += w * double(S.x[k][src]);
+          gv[k] += w * double(S.v[k][src]);
+        }
+      }
+      const auto i = std::size_t(L.ghosts[g]);
+      for (std::size_t k = 0; k < 3; ++k) {
+        x[3 * l + k][i] = double(T(gx[k]));
+        v[3 * l + k][i] = double(T(gv[k]));
+      }
     }
   }
 }
@@ -51,10 +75,9 @@ void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std:
 // w m u (3), w m v (3) and w m over the finer free nodes whose coarse tet has it as a corner with
 // weight w (m: their mass, u: displacement).
 template <class T>
-std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const Hierarchy& h, int l,
-                                                  const std::vector<std::vector<double>>& x,
-                                                  const std::vector<std::vector<double>>& v) {
-  std::vector<std::array<double, 7>> acc(body.levels[std::size_t(l)].node_count, std::array<double, 7>{});
+void restrict_field(const SimBody<T>& body, const Hierarchy& h, int l, const std::vector<std::vector<double>>& x,
+                    const std::vector<std::vector<double>>& v, std::vector<std::array<double, 7>>& acc) {
+  acc.assign(body.levels[std::size_t(l)].node_count, std::array<double, 7>{});
   const Level<T>& F = body.levels[std::size_t(l) + 1];
   const LevelLinks& fl = h.links[std::size_t(l) + 1];
   for (std::size_t f = 0; f < F.node_count; ++f) {
@@ -72,7 +95,6 @@ std::vector<std::array<double, 7>> restrict_field(const SimBody<T>& body, const 
       q[6] += wm;
     }
   }
-  return acc;
 }
 
 // The simulated field carried to the nodes of every level, for a node that starts being simulated
@@ -127,7 +149,7 @@ CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const Sta
 }  // namespace
 
 template <class T>
-bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) {
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change) {
   AdaptiveState& st = *body.adapt;
   if (st.forced_target < 0 && t + 1e-12 < st.next_check) return false;  // World::force_level acts at once
   st.next_check = t + st.def.check_every;
@@ -141,18 +163,20 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
   // tets around it. Piecewise-constant F jumps by about h |grad F| between tets: where it jumps,
   // the level's tets are too coarse for how fast the deformation varies there. A rigid motion or a
   // uniform strain gives no jump (F -> R F leaves |F_t - F_u| as it is).
-  std::vector<std::vector<double>> x, v;
+  // Scratch kept between decisions (AdaptiveState::Scratch): resized, never freed.
+  AdaptiveState::Scratch& sc = st.scratch;
+  auto& x = sc.x;
+  auto& v = sc.v;
   field_now(body, x, v);
-  std::vector<std::vector<double>> measure(static_cast<std::size_t>(levels));
-  std::vector<std::array<double, 9>> F;
+  auto& measure = sc.measure;  // read for the levels that can split (all but the finest)
+  measure.resize(std::size_t(levels - 1));
+  auto& F = sc.F;  // written for the stepped tets, and only they are read (a neighbour is read if stepped)
   double peak = 0;  // the body's largest Green-Lagrange strain |(F^T F - I) / 2| over its stepped tets
   for (int l = 0; l < levels; ++l) {
     const Level<T>& L = body.levels[std::size_t(l)];
-    auto& m = measure[std::size_t(l)];
-    m.assign(L.node_count, 0.0);
     const std::vector<double>* xl = &x[3 * std::size_t(l)];  // x, y, z of level l
     const std::vector<std::uint8_t>& on = as.stepped_mask(l);
-    F.assign(L.tet_count, {});
+    if (F.size() < L.tet_count) F.resize(L.tet_count);
     for (const Range& run : L.stepped_runs)
       for (std::size_t e = run.begin; e < run.end; ++e) {
         F[e] = deformation_gradient(L, e, xl);
@@ -165,6 +189,9 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
           }
         peak = std::max(peak, std::sqrt(e2));
       }
+    if (l + 1 == levels) break;  // the finest level never splits: its peak strain is all it gives
+    auto& m = measure[std::size_t(l)];
+    m.assign(L.node_count, 0.0);
     const auto& nb = st.neighbours[std::size_t(l)];
     for (const Range& run : L.stepped_runs)
       for (std::size_t e = run.begin; e < run.end; ++e) {
@@ -223,8 +250,9 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
     }
     return worst;
   };
-  std::vector<std::vector<std::array<double, 7>>> restricted_now(static_cast<std::size_t>(levels));
-  for (int l = 0; l + 1 < levels; ++l) restricted_now[std::size_t(l)] = restrict_field(body, h, l, x, v);
+  auto& restricted_now = sc.restricted;
+  restricted_now.resize(std::size_t(levels - 1));
+  for (int l = 0; l + 1 < levels; ++l) restrict_field(body, h, l, x, v, restricted_now[std::size_t(l)]);
 
   // Near a tool, a prescribed motion or a refining probe (AdaptDef::refine_near; < 0: one mean edge
   // of the node's own level): a node within that distance of a shape's surface.
@@ -311,6 +339,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near) 
   }
   st.forced_target = -1;
   if (!any) return false;
+  if (before_change) before_change();
 
   // 3. Re-activate and carry the state over.
   const auto start = std::chrono::steady_clock::now();
@@ -467,7 +496,7 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
   return nb;
 }
 
-template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&);
-template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&);
+template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&, const std::function<void()>&);
+template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&, const std::function<void()>&);
 
 }  // namespace pliant::detail

@@ -10,6 +10,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -41,6 +42,15 @@ struct AdaptiveState {
   double check_max_seconds = 0;                // the longest decision point
   std::int64_t touched_nodes = 0, touched_tets = 0;  // work of the applies so far (PatchStats summed)
   PatchState patch;                            // what the applies keep between changes (make_patch_state at build)
+  // What a decision computes, kept from one decision to the next so that a decision allocates
+  // nothing once the body's arrays are sized (a fresh 0.5 MB of field on the 50k-tet organ was
+  // page faults at every decision; adapt_body sizes these on first use).
+  struct Scratch {
+    std::vector<std::vector<double>> x, v;                        // per level x 3: every node's position, velocity now
+    std::vector<std::array<double, 9>> F;                         // per tet of one level: F, written for stepped tets
+    std::vector<std::vector<double>> measure;                     // per level but the finest: per node
+    std::vector<std::vector<std::array<double, 7>>> restricted;   // per level but the finest (restrict_field)
+  } scratch;
 };
 
 // The arrays of `body` that follow from an activation (every level): stepped runs, node states,
@@ -69,7 +79,11 @@ struct NearShape {
   double radius = 0;
   bool box = false;
 };
+// `before_change`, if given, is called once, after the decisions and before the first change to
+// the body (when there is one): the caller's measurements of the state as it was (the energy give-back
+// of Simulation::step) are taken only at decision points that change something.
 template <class T>
-bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near = {});
+bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near = {},
+                const std::function<void()>& before_change = {});
 
 }  // namespace pliant::detail
