@@ -565,7 +565,7 @@ void use_current_state(const SimBody<T>& body, const Level<T>& L, ElementContext
 // the energy pass or not.
 template <class T>
 void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, const Level<T>& L, double& sum) const {
-  scratch.resize(L.tet_count);
+  grow_scratch(L.tet_count);
   ElementContext<T> ec = element_context(L);
   CurrentState<T> now;
   use_current_state(body, L, ec, now);
@@ -709,7 +709,7 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels) {
       if (L.model == ForceModel::linear) continue;
-      scratch.resize(L.tet_count);
+      grow_scratch(L.tet_count);
       const ElementContext<T> ec = element_context(L);
       double* out = scratch.data();
       for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)

@@ -242,6 +242,12 @@ class Simulation {
   // True if some level's model can stiffen beyond its rest state (stvk, corotational, springs).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
+  // Sizes scratch for n tets. Never shrinks: the levels of a body take it in turn, and resizing
+  // from a coarse level's size back to the finest's zeroed 0.4 MB at every deformation check of the
+  // 50k-tet organ (only the entries of stepped tets, written first, are read).
+  void grow_scratch(std::size_t n) const {
+    if (scratch.size() < n) scratch.resize(n);
+  }
 
   void relocate_probes(int body);
 

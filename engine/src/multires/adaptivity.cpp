@@ -472,6 +472,30 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
   return true;
 }
 
+void size_adapt_scratch(AdaptiveState& st) {
+  const Hierarchy& h = *st.hierarchy;
+  const std::size_t levels = h.levels();
+  AdaptiveState::Scratch& sc = st.scratch;
+  sc.x.resize(3 * levels);
+  sc.v.resize(3 * levels);
+  sc.measure.resize(levels - 1);
+  sc.restricted.resize(levels - 1);
+  std::size_t tets = 0;
+  for (std::size_t l = 0; l < levels; ++l) {
+    const std::size_t n = h.meshes[l].node_count();
+    for (std::size_t k = 0; k < 3; ++k) {
+      sc.x[3 * l + k].resize(n);
+      sc.v[3 * l + k].resize(n);
+    }
+    if (l + 1 < levels) {
+      sc.measure[l].resize(n);
+      sc.restricted[l].resize(n);
+    }
+    tets = std::max(tets, h.meshes[l].tet_count());
+  }
+  sc.F.resize(tets);
+}
+
 std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
   std::vector<std::array<std::int32_t, 4>> nb(mesh.tet_count(), {-1, -1, -1, -1});
   // Faces keyed by their sorted corners; the face opposite corner a of tet t.
