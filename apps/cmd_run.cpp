@@ -96,7 +96,8 @@ std::string progress_text(const RunProgress& p) {
 
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
                 const std::string& precision, std::optional<double> duration, bool quiet, bool dry_run, bool repair,
-                double progress_every, const PictureOptions& pic, const std::string& schedule, bool realtime) {
+                double progress_every, const PictureOptions& pic, const std::string& schedule, bool realtime,
+                std::optional<double> realtime_frame) {
   SceneDef scene = load_scene_file(scene_path);
   if (repair)
     for (BodyDef& b : scene.bodies) b.mesh.repair = true;
@@ -108,6 +109,11 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   else if (!precision.empty()) throw InputError(fmt::format("--precision must be float or double, got '{}'", precision));
   opt.duration = duration;
   if (realtime) opt.realtime = true;
+  if (realtime_frame) {
+    if (!(*realtime_frame >= 0 && std::isfinite(*realtime_frame)))
+      throw InputError(fmt::format("--realtime-frame must be a finite number >= 0 (s), got {}", *realtime_frame));
+    opt.realtime_frame = *realtime_frame;
+  }
   const bool paced = realtime || scene.realtime;
   if (schedule == "staggered") opt.schedule = Schedule::staggered;
   else if (schedule == "naive") opt.schedule = Schedule::naive;
@@ -242,10 +248,14 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     }
     fmt::print("max displacement {:.4g} m, kinetic {:.4g} J, elastic {:.4g} J, state hash {}\n", s.max_displacement,
                s.kinetic_energy, s.elastic_energy, s.state_hash);
-    if (s.realtime)
-      fmt::print("real time: {:.3g} simulated s per wall s; {} of {} steps ended after their wall-clock time; lag mean "
-                 "{:.3g} s, max {:.3g} s\n",
-                 s.realtime_factor, s.deadline_misses, s.steps, s.lag_mean_s, s.lag_max_s);
+    if (s.realtime) {
+      const bool framed = s.realtime_frame_s > 0;
+      const std::string frames = framed ? fmt::format("frames of {:.3g} ms", 1e3 * s.realtime_frame_s) : "steps";
+      fmt::print("real time: {:.3g} simulated s per wall s; {} of {} {} ended after their wall-clock time; {} "
+                 "stepping {:.0f} us mean, p99 {:.0f}, max {:.0f}; lag mean {:.3g} s, max {:.3g} s\n",
+                 s.realtime_factor, s.deadline_misses, s.frames, frames, framed ? "frames" : "steps", s.frame_mean_us,
+                 s.frame_p99_us, s.frame_max_us, s.lag_mean_s, s.lag_max_s);
+    }
     for (const auto& a : s.adapt)
       fmt::print("adaptivity of body '{}': {} splits, {} merges in {} changes, {:.0f} us per change; {} decision points, "
                  "{:.0f} us each (mean), {:.0f} us at most\n",
@@ -275,7 +285,7 @@ Command add_run_command(CLI::App& app) {
   struct Options {
     std::string scene, out = "out", precision, schedule;
     std::optional<int> threads;
-    std::optional<double> duration;
+    std::optional<double> duration, realtime_frame;
     bool quiet = false, dry_run = false, repair = false, realtime = false;
     double progress_every = 5;  // s between progress lines when stderr is not a terminal (a log, a CI job)
     PictureOptions pic;
@@ -293,6 +303,9 @@ Command add_run_command(CLI::App& app) {
   run->add_flag("--realtime", o->realtime,
                 "Simulated time follows the wall clock: steps wait for their time, and the report says how many ended late "
                 "and how far simulated time lagged (also \"realtime\": true in the scene)");
+  run->add_option("--realtime-frame", o->realtime_frame,
+                  "Seconds of simulated time per real-time frame: each frame must be done by the wall-clock time of its "
+                  "end (default 0.001, a 1 kHz haptic loop; 0: every step; also \"realtime_frame\" in the scene)");
   run->add_flag("--quiet,-q", o->quiet, "No plan, no progress and no report (warnings and errors still print)");
   run->add_option("--progress-every", o->progress_every,
                   "Seconds between progress lines on stderr when it is not a terminal (on a terminal, one line is rewritten)")
@@ -313,7 +326,8 @@ Command add_run_command(CLI::App& app) {
   add_view_options(run, o->pic.up, o->pic.azimuth, o->pic.elevation);
   return {run, [o] {
             return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->dry_run, o->repair,
-                               o->progress_every, o->pic, o->schedule, o->realtime);
+                               o->progress_every, o->pic, o->schedule, o->realtime,
+                               o->realtime_frame);
           }};
 }
 

@@ -252,6 +252,10 @@ struct SceneDef {
   OutputDef output;
   std::optional<CameraDef> camera;  // none: pictures frame the bodies automatically
   bool realtime = false;  // `pliant run` paces the steps so that simulated time follows the wall clock (RunOptions::realtime)
+  // s: the frame of a real-time run (the host's tick: 1 ms for a 1 kHz haptic loop). Each frame of
+  // simulated time must be computed by the wall-clock time of its end (its deadline); the steps
+  // inside a frame run back to back. 0: every step is its own frame.
+  double realtime_frame = 0.001;
   std::filesystem::path source;  // the scene file, for messages ("" when built in code)
 };
 

@@ -41,11 +41,13 @@ struct RunOptions {
   std::function<void(const RunProgress&)> on_progress;
   bool write_files = true;                 // false: compute only (tests, studies)
   // Real time (SceneDef::realtime, `pliant run --realtime`): simulated time follows the wall clock.
-  // A step starts when the wall clock (since the run began) reaches the simulated time of its
-  // start (the runner sleeps until then); a step that ends after the wall-clock time of its end
-  // is a deadline miss, and simulated time then lags the clock (RunSummary reports both). The
-  // physics of a step never changes: only when it runs.
+  // The run goes in frames of realtime_frame simulated seconds (1 ms by default: a 1 kHz haptic
+  // loop's tick): a frame starts when the wall clock (since the run began) reaches the simulated
+  // time of its start (the runner sleeps until then), runs its steps back to back, and is a
+  // deadline miss if its last step ends after the wall-clock time of its end; simulated time then
+  // lags the clock (RunSummary reports both). The physics of a step never changes: only when it runs.
   std::optional<bool> realtime;            // override the scene's
+  std::optional<double> realtime_frame;    // s, override the scene's frame (SceneDef::realtime_frame; 0: every step)
   // The wall clock (s, any origin) and how to wait for it, for real-time runs; empty: the steady
   // clock and std::this_thread::sleep_until. Tests give a simulated clock.
   std::function<double()> wall_clock;
@@ -95,12 +97,16 @@ struct RunSummary {
   std::size_t tick_tet_updates_max = 0;
   double tick_mean_us = 0, tick_p50_us = 0, tick_p99_us = 0, tick_max_us = 0;
   // Time: the run's simulated seconds per wall second of stepping (above 1: faster than real time).
-  // Real-time runs (RunOptions::realtime) also count the steps that ended after the wall-clock time
-  // of their end, and how far simulated time lagged the clock at the end of each step.
+  // Real-time runs (RunOptions::realtime) run in frames of realtime_frame_s of simulated time
+  // (SceneDef::realtime_frame; 0: every step is a frame) and count the frames that ended after the
+  // wall-clock time of their end (deadline_misses), how far simulated time lagged the clock at the
+  // end of each frame, and the wall time each frame spent stepping (waits left out).
   double realtime_factor = 0;
   bool realtime = false;
-  std::int64_t deadline_misses = 0;
+  double realtime_frame_s = 0;
+  std::int64_t frames = 0, deadline_misses = 0;
   double lag_mean_s = 0, lag_max_s = 0;
+  double frame_mean_us = 0, frame_p99_us = 0, frame_max_us = 0;
   // The controller of real-time runs with adaptive bodies: how often it coarsened and refined
   // again, and the thresholds' largest and final scale (1 = the scene's).
   std::int64_t controller_coarsened = 0, controller_refined = 0;

@@ -179,8 +179,8 @@ class World {
   // controller of `pliant run --realtime` sets it; 1 is the scene's own thresholds.
   void set_adapt_scale(BodyId body, double scale);
   double adapt_scale(BodyId body) const;
-  // The finest level an adaptive body may split to (nodes split beyond it merge at its next
-  // decision); level_count - 1 lifts the cap. The real-time controller lowers it when raising the
+  // The finest level an adaptive body may split to (nodes split beyond it merge at the next tick
+  // where every level's window ends, without waiting for check_every); level_count - 1 lifts the cap. The real-time controller lowers it when raising the
   // thresholds is not enough.
   void set_adapt_cap(BodyId body, int level);
   int adapt_cap(BodyId body) const;

@@ -195,7 +195,12 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     j["controller_max_scale"] = s.controller_max_scale;
     j["controller_final_scale"] = s.controller_final_scale;
     j["controller_min_cap"] = s.controller_min_cap;
+    j["realtime_frame_s"] = s.realtime_frame_s;
+    j["frames"] = s.frames;
     j["deadline_misses"] = s.deadline_misses;
+    j["frame_mean_us"] = s.frame_mean_us;
+    j["frame_p99_us"] = s.frame_p99_us;
+    j["frame_max_us"] = s.frame_max_us;
     j["lag_mean_s"] = s.lag_mean_s;
     j["lag_max_s"] = s.lag_max_s;
   }
@@ -331,52 +336,112 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   };
   const double wall0 = realtime ? wall_now() : 0.0, sim0 = world.time();
   double lag_sum = 0;
-  std::int64_t steps_run = 0;
+  // Frames (SceneDef::realtime_frame; 0: every step is one): a frame waits at its start for the
+  // wall clock to reach its simulated time, runs its steps back to back, and misses its deadline if
+  // its last step ends after the wall-clock time of the frame's end. A frame ends with the first
+  // step that reaches its end time (to within eps). Its busy time (waits left out) goes into
+  // frame_stats, for the frame percentiles.
+  const double frame = options.realtime_frame.value_or(scene.realtime_frame);
+  if (!(frame >= 0 && std::isfinite(frame)))
+    throw InputError(fmt::format("realtime_frame must be a number of seconds >= 0, got {}", frame));
+  s.realtime_frame_s = realtime ? frame : 0.0;
+  bool frame_open = false;
+  double frame_end = sim0, frame_busy = 0;
+  TickStats frame_stats;
   // The real-time controller (adaptive bodies only): over windows of kControlWindow simulated
-  // seconds, the wall time spent stepping (waits left out) against the window; above kBusy of it
-  // the adaptive bodies' thresholds are raised (coarser: cheaper steps), below kIdle they come back
-  // down towards the scene's. It decides where resolution goes, never what a step computes.
-  // First the thresholds go up (to kMaxScale), then the finest level allowed comes down (a cap);
-  // with slack, the cap goes back up first, then the thresholds back down.
+  // seconds, the wall time spent stepping (waits left out) against the window. It moves the adaptive
+  // bodies along a ladder of settings, coarse to fine: rung 0 = every body capped at its level 0
+  // (World::set_adapt_cap) with its thresholds x kMaxScale (World::set_adapt_scale); rung c = the cap
+  // at level c; above the finest level's rung, the thresholds come down by kFactor per rung to the
+  // scene's own (x1). It decides where resolution goes, never what a step computes.
+  //  - It starts at rung 0: a guaranteed rate cannot begin by overrunning (the 50k-tet organ, all
+  //    fine, took 2 s of wall time for its first 0.1 s before the controller had caught up).
+  //  - A window is busy if it used more than kBusy of its time, if simulated time is behind the
+  //    clock, or if a frame in it missed its deadline: the controller steps one rung down.
+  //  - A window below kIdle of its time and on time steps one rung up, unless that rung was already
+  //    found busy: then only if the load it measured there, scaled by how the load here changed
+  //    since, would now stay below kBusy (without this memory, a rung that costs 0.9 of the clock was
+  //    retried every other window, missing frames each time).
   constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 4;
   std::vector<BodyId> adaptive_bodies;
   for (std::size_t b = 0; b < world.body_count(); ++b)
     if (world.body_def(BodyId(b)).multiresolution.levels > 1 &&
         world.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive)
       adaptive_bodies.push_back(BodyId(b));
-  double window_sim0 = world.time(), window_busy = 0, scale = 1;
-  int cap = 1 << 20;
+  double window_sim0 = world.time(), window_busy = 0;
+  std::int64_t window_misses = 0;
   int finest = 0;
   for (BodyId b : adaptive_bodies) finest = std::max(finest, world.level_count(b) - 1);
-  if (!adaptive_bodies.empty()) cap = finest;
+  int scale_rungs = 0;  // rungs above the finest cap: kMaxScale / kFactor^k for k = 1.. down to 1
+  for (double x = kMaxScale; x > 1; x /= kFactor) ++scale_rungs;
+  const int top_rung = finest + scale_rungs;
+  auto cap_of = [&](int r) { return std::min(r, finest); };
+  auto scale_of = [&](int r) { return r <= finest ? kMaxScale : std::max(1.0, kMaxScale / std::pow(kFactor, r - finest)); };
+  int rung = adaptive_bodies.empty() ? top_rung : 0;
+  double scale = scale_of(rung);
+  int cap = cap_of(rung);
+  std::vector<double> busy_load(std::size_t(top_rung) + 1, 0.0);  // per rung: the load of the window that found it busy
+  std::vector<double> entry_load(std::size_t(top_rung) + 1, 0.0); // per rung: the load below it when it was entered
+  auto apply_rung = [&] {
+    scale = scale_of(rung);
+    cap = cap_of(rung);
+    for (BodyId b : adaptive_bodies) {
+      world.set_adapt_scale(b, scale);
+      world.set_adapt_cap(b, std::min(cap, world.level_count(b) - 1));
+    }
+    s.controller_max_scale = std::max(s.controller_max_scale, scale);
+    if (cap < finest) s.controller_min_cap = s.controller_min_cap < 0 ? cap : std::min(s.controller_min_cap, cap);
+  };
+  if (realtime && !adaptive_bodies.empty()) apply_rung();
   bool estimated = false, coarsest_warned = false;
   double next_progress = options.progress_every;
   try {
     for (std::int64_t i = 0; i < total_steps; ++i) {
-      if (realtime) {
-        const double due = wall0 + (world.time() - sim0);  // the wall-clock time of this step's start
+      if (realtime && !frame_open) {
+        const double due = wall0 + (world.time() - sim0);  // the wall-clock time of this frame's start
         const double before = wall_now();
         if (before < due) {
           wait_until(due);
           clock.idle(wall_now() - before);
         }
+        frame_open = true;
+        frame_busy = 0;
+        if (frame > 0)
+          while (frame_end <= world.time() + eps) frame_end += frame;
       }
       const double step_start = realtime ? wall_now() : 0.0;
       world.step();
-      ++steps_run;
+      const double step_end = realtime ? wall_now() : 0.0;
+      if (realtime) frame_busy += step_end - step_start;
+      bool frame_heavy = false;  // a frame that used more than kBusy of its time (frames > 0 only)
+      if (realtime && (frame <= 0 || world.time() + eps >= frame_end)) {  // the frame's last step
+        frame_open = false;
+        frame_heavy = frame > 0 && frame_busy > kBusy * frame;
+        ++s.frames;
+        frame_stats.add(frame_busy, 0);
+        const double lag = (step_end - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
+        if (lag > 0) {
+          ++s.deadline_misses;
+          ++window_misses;
+          lag_sum += lag;
+          s.lag_max_s = std::max(s.lag_max_s, lag);
+        }
+      }
       if (realtime && !adaptive_bodies.empty()) {
-        window_busy += wall_now() - step_start;
+        window_busy += step_end - step_start;
         const double window = world.time() - window_sim0;
-        if (window >= kControlWindow) {
+        // A heavy frame ends the window at once (its rung has less room than the window's mean
+        // shows: coarsen now rather than miss the frames left in the window).
+        if (window >= kControlWindow || ((frame_heavy || window_misses > 0) && rung > 0)) {
           const double load = window_busy / window;
           // Behind the clock counts as busy: refining again while late would never catch up.
           const double behind = (wall_now() - wall0) - (world.time() - sim0);
-          double next = scale;
-          int next_cap = cap;
-          if (load > kBusy || behind > 0.5 * kControlWindow) {
-            if (scale < kMaxScale) next = std::min(scale * kFactor, kMaxScale);
-            else if (cap > 0) next_cap = cap - 1;
-            else if (load > 1 && !coarsest_warned) {
+          const int was = rung;
+          if (load > kBusy || behind > 0.5 * kControlWindow || window_misses > 0 || frame_heavy) {
+            if (rung > 0) {
+              busy_load[std::size_t(rung)] = std::max(load, kBusy);
+              --rung;
+            } else if (load > 1 && !coarsest_warned) {
               // Nothing left to coarsen: the scene cannot keep the clock even at its coarsest.
               coarsest_warned = true;
               const std::string w = fmt::format(
@@ -388,31 +453,21 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
               s.notes.push_back(w);
               if (options.on_warning) options.on_warning(w);
             }
-          } else if (load < kIdle && behind <= 0) {
-            if (cap < finest) next_cap = cap + 1;
-            else if (scale > 1) next = std::max(scale / kFactor, 1.0);
-          }
-          if (next != scale || next_cap != cap) {
-            (next > scale || next_cap < cap ? s.controller_coarsened : s.controller_refined)++;
-            scale = next;
-            cap = next_cap;
-            for (BodyId b : adaptive_bodies) {
-              world.set_adapt_scale(b, scale);
-              world.set_adapt_cap(b, std::min(cap, world.level_count(b) - 1));
+          } else if (load < kIdle && behind <= 0 && rung < top_rung) {
+            const auto up = std::size_t(rung) + 1;
+            const bool known_busy = busy_load[up] > 0;
+            if (!known_busy || busy_load[up] * load / entry_load[up] < kBusy) {
+              entry_load[up] = std::max(load, 1e-9);
+              ++rung;
             }
-            s.controller_max_scale = std::max(s.controller_max_scale, scale);
-            if (cap < finest) s.controller_min_cap = s.controller_min_cap < 0 ? cap : std::min(s.controller_min_cap, cap);
+          }
+          if (rung != was) {
+            (rung < was ? s.controller_coarsened : s.controller_refined)++;
+            apply_rung();
           }
           window_sim0 = world.time();
           window_busy = 0;
-        }
-      }
-      if (realtime) {
-        const double lag = (wall_now() - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
-        if (lag > 0) {
-          ++s.deadline_misses;
-          lag_sum += lag;
-          s.lag_max_s = std::max(s.lag_max_s, lag);
+          window_misses = 0;
         }
       }
       clock.stepped(world.substeps());
@@ -457,7 +512,22 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   }
   s.wall_time_s = realtime && options.wall_clock ? wall_now() - wall0 : clock.wall();
   s.realtime_factor = s.wall_time_s > 0 ? (world.time() - sim0) / s.wall_time_s : 0;
-  if (realtime && steps_run > 0) s.lag_mean_s = lag_sum / double(steps_run);
+  if (realtime && frame_open) {  // a last frame cut short by the end of the run
+    ++s.frames;
+    frame_stats.add(frame_busy, 0);
+    const double lag = (wall_now() - wall0) - (world.time() - sim0);
+    if (lag > 0) {
+      ++s.deadline_misses;
+      lag_sum += lag;
+      s.lag_max_s = std::max(s.lag_max_s, lag);
+    }
+  }
+  if (realtime && s.frames > 0) {
+    s.lag_mean_s = lag_sum / double(s.frames);
+    s.frame_mean_us = 1e6 * frame_stats.mean_s();
+    s.frame_p99_us = 1e6 * frame_stats.quantile_s(0.99);
+    s.frame_max_us = 1e6 * frame_stats.max_s();
+  }
   s.controller_final_scale = scale;  // over every step (0 for steps on time)
   s.steps = world.steps();
   s.max_substeps = world.max_substeps();

@@ -150,6 +150,12 @@ struct World::Impl {
     visit([&](auto& s) {
       s.schedule = def.schedule == Schedule::naive ? ScheduleKind::naive : ScheduleKind::staggered;
       s.prepare(dt / substeps);
+      // The monitors' per-tet scratch at its largest now, not at the first step (a real-time run's
+      // first frame paid its page faults: 0.4 MB on the 50k-tet organ).
+      std::size_t tets = 0;
+      for (const auto& body : s.bodies)
+        for (const auto& L : body.levels) tets = std::max(tets, L.tet_count);
+      s.grow_scratch(tets);
     });
   }
 
@@ -415,6 +421,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
           a->edge.push_back(sum / (3.0 * double(m.tet_count())));
         }
         a->patch = detail::make_patch_state(b, *h);
+        detail::size_adapt_scratch(*a);
         b.adapt = std::move(a);
       }
     } else {
@@ -575,6 +582,9 @@ void World::set_adapt_cap(BodyId b, int level) {
     if (!body.adapt) throw InputError(fmt::format("set_adapt_cap: body '{}' is not adaptive (multiresolution.active)", body.def.name));
     if (level < 0 || level >= int(body.levels.size()))
       throw InputError(fmt::format("set_adapt_cap: level {} does not exist (0 .. {})", level, body.levels.size() - 1));
+    // Lowered: decide at the next point where every level's window ends rather than at the next
+    // check_every (the real-time controller lowers it when frames run out of time).
+    if (level < body.adapt->cap) body.adapt->next_check = 0;
     body.adapt->cap = level;
   });
 }

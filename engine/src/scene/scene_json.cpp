@@ -300,6 +300,7 @@ SceneDef Reader::scene(const Json& doc) const {
   });
   optional(doc, "", "camera", [&](const auto& v, const auto& p) { s.camera = camera(v, p); });
   optional(doc, "", "realtime", [&](const auto& v, const auto& p) { s.realtime = boolean(v, p); });
+  optional(doc, "", "realtime_frame", [&](const auto& v, const auto& p) { s.realtime_frame = non_negative(v, p); });
   optional(doc, "", "obstacles", [&](const auto& v, const auto& path) {
     for (std::size_t i = 0; i < array(v, path).size(); ++i) s.world.obstacles.push_back(obstacle(v[i], element(path, i)));
   });
