@@ -251,10 +251,11 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     if (s.realtime) {
       const bool framed = s.realtime_frame_s > 0;
       const std::string frames = framed ? fmt::format("frames of {:.3g} ms", 1e3 * s.realtime_frame_s) : "steps";
-      fmt::print("real time: {:.3g} simulated s per wall s; {} of {} {} ended after their wall-clock time; {} "
-                 "stepping {:.0f} us mean, p99 {:.0f}, max {:.0f}; lag mean {:.3g} s, max {:.3g} s\n",
-                 s.realtime_factor, s.deadline_misses, s.frames, frames, framed ? "frames" : "steps", s.frame_mean_us,
-                 s.frame_p99_us, s.frame_max_us, s.lag_mean_s, s.lag_max_s);
+      fmt::print("real time: {:.3g} simulated s per wall s; {} of {} {} ended after their wall-clock time ({} took longer "
+                 "than their time to step; waits woke up to {:.0f} us late); {} stepping {:.0f} us mean, p99 {:.0f}, max "
+                 "{:.0f}; lag mean {:.3g} s, max {:.3g} s\n",
+                 s.realtime_factor, s.deadline_misses, s.frames, frames, s.frames_over, 1e6 * s.wake_late_max_s,
+                 framed ? "frames" : "steps", s.frame_mean_us, s.frame_p99_us, s.frame_max_us, s.lag_mean_s, s.lag_max_s);
     }
     for (const auto& a : s.adapt)
       fmt::print("adaptivity of body '{}': {} splits, {} merges in {} changes, {:.0f} us per change; {} decision points, "

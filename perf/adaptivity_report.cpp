@@ -330,15 +330,16 @@ void realtime() {
       cell, d_adapt, d_fine, sim_adapt, sim_fine, wall_adapt, wall_fine);
   const Trace a = run(with(d_adapt, ""), organ, true);
   const Trace f = run(with(d_fine, uniform.dump()), organ, true);
-  fmt::print("| run | simulated s | frames of 1 ms | deadline misses | frame stepping mean (us) | p99 | max | tick mean (us) | p50 | p99 | max | realtime factor | lag mean (s) | lag max (s) | splits / merges | controller: coarsened / refined, max scale, min cap | tet updates / s |\n");
-  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
+  fmt::print("| run | simulated s | frames of 1 ms | deadline misses | of which over 1 ms of stepping | latest wake-up (us) | frame stepping mean (us) | p99 | max | tick mean (us) | p50 | p99 | max | realtime factor | lag mean (s) | lag max (s) | splits / merges | controller: coarsened / refined, max scale, min cap | tet updates / s |\n");
+  fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto* t : {&a, &f}) {
     const RunSummary& s = t->summary;
     std::string sm = "—";
     for (const auto& ad : s.adapt) sm = fmt::format("{} / {}", ad.splits, ad.merges);
-    fmt::print("| {} | {:.3g} | {} | {} ({:.2f}%) | {:.0f} | {:.0f} | {:.0f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} | {:.3f} | {:.3g} | {:.3g} | {} | {} / {}, x{:g}, {} | {:.3g} |\n",
+    fmt::print("| {} | {:.3g} | {} | {} ({:.2f}%) | {} | {:.0f} | {:.0f} | {:.0f} | {:.0f} | {:.1f} | {:.1f} | {:.1f} | {:.0f} | {:.3f} | {:.3g} | {:.3g} | {} | {} / {}, x{:g}, {} | {:.3g} |\n",
                t == &a ? "adaptive" : "uniform finest", s.simulated_time, s.frames, s.deadline_misses,
-               100.0 * double(s.deadline_misses) / double(std::max<std::int64_t>(s.frames, 1)), s.frame_mean_us, s.frame_p99_us,
+               100.0 * double(s.deadline_misses) / double(std::max<std::int64_t>(s.frames, 1)), s.frames_over,
+               1e6 * s.wake_late_max_s, s.frame_mean_us, s.frame_p99_us,
                s.frame_max_us, s.tick_mean_us, s.tick_p50_us,
                s.tick_p99_us, s.tick_max_us, s.realtime_factor, s.lag_mean_s, s.lag_max_s, sm, s.controller_coarsened,
                s.controller_refined, s.controller_max_scale, s.controller_min_cap < 0 ? "none" : std::to_string(s.controller_min_cap),

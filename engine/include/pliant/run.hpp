@@ -107,6 +107,11 @@ struct RunSummary {
   std::int64_t frames = 0, deadline_misses = 0;
   double lag_mean_s = 0, lag_max_s = 0;
   double frame_mean_us = 0, frame_p99_us = 0, frame_max_us = 0;
+  // Why frames missed: frames_over is how many took longer than a frame to step (late by their own
+  // work); the others started late, behind an earlier frame or a wake-up: wake_late_max_s is the
+  // most a frame started after its due time although it had waited for it (the OS's scheduling).
+  std::int64_t frames_over = 0;
+  double wake_late_max_s = 0;
   // The controller of real-time runs with adaptive bodies: how often it coarsened and refined
   // again, and the thresholds' largest and final scale (1 = the scene's).
   std::int64_t controller_coarsened = 0, controller_refined = 0;

@@ -201,6 +201,8 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     j["frame_mean_us"] = s.frame_mean_us;
     j["frame_p99_us"] = s.frame_p99_us;
     j["frame_max_us"] = s.frame_max_us;
+    j["frames_over"] = s.frames_over;
+    j["wake_late_max_s"] = s.wake_late_max_s;
     j["lag_mean_s"] = s.lag_mean_s;
     j["lag_max_s"] = s.lag_max_s;
   }
@@ -402,7 +404,9 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         const double before = wall_now();
         if (before < due) {
           wait_until(due);
-          clock.idle(wall_now() - before);
+          const double woke = wall_now();
+          clock.idle(woke - before);
+          s.wake_late_max_s = std::max(s.wake_late_max_s, woke - due);
         }
         frame_open = true;
         frame_busy = 0;
@@ -417,6 +421,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
       if (realtime && (frame <= 0 || world.time() + eps >= frame_end)) {  // the frame's last step
         frame_open = false;
         frame_heavy = frame > 0 && frame_busy > kBusy * frame;
+        if (frame_busy > (frame > 0 ? frame : world.dt())) ++s.frames_over;
         ++s.frames;
         frame_stats.add(frame_busy, 0);
         const double lag = (step_end - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
