@@ -31,9 +31,12 @@ std::array<double, 9> deformation_gradient(const Level<T>& L, std::size_t t, con
   return F;
 }
 
-// Position and velocity of every node of every level now (ghosts where their sources are, as
-// current_state gives them: summed in double, rounded to T), in double, into x and v (3 arrays per
-// level, reused: no allocation once sized).
+// Position and velocity of every simulated (not inactive) node of every level now (ghosts where
+// their sources are, as current_state gives them: summed in double, rounded to T), in double, into
+// x and v (3 arrays per level, reused: no allocation once sized). An inactive node's entries are
+// left as they were: a decision reads the simulated field only (an inactive node's own position, for
+// the distance to a tool, is_near reads from the level). On the 50k-tet organ at its
+// coarsest, 9 000 of its 10 700 nodes are inactive.
 template <class T>
 void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std::vector<std::vector<double>>& v) {
   const std::size_t n = body.levels.size();
@@ -46,10 +49,11 @@ void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std:
       auto& vk = v[3 * l + k];
       xk.resize(L.node_count);
       vk.resize(L.node_count);
-      for (std::size_t i = 0; i < L.node_count; ++i) {
-        xk[i] = double(L.x[k][i]);
-        vk[i] = double(L.v[k][i]);
-      }
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        if (L.state[i] != kNodeInactive) {
+          xk[i] = double(L.x[k][i]);
+          vk[i] = double(L.v[k][i]);
+        }
     }
     for (std::size_t g = 0; g < L.ghosts.size(); ++g) {
       double gx[3] = {0, 0, 0}, gv[3] = {0, 0, 0};
@@ -259,7 +263,10 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
   auto is_near = [&](int l, std::size_t i) {
     if (near.empty() || st.def.refine_near == 0) return false;
     const double reach = st.def.refine_near >= 0 ? st.def.refine_near : st.edge[std::size_t(l)];
-    const P3 p{x[3 * std::size_t(l)][i], x[3 * std::size_t(l) + 1][i], x[3 * std::size_t(l) + 2][i]};
+    const Level<T>& L = body.levels[std::size_t(l)];
+    const bool simulated = L.state[i] != kNodeInactive;  // else x holds nothing for it: its own place
+    P3 p;
+    for (std::size_t k = 0; k < 3; ++k) p[k] = simulated ? x[3 * std::size_t(l) + k][i] : double(L.x[k][i]);
     for (const NearShape& s : near) {
       double d2 = 0;
       if (s.box) {
