@@ -43,6 +43,9 @@ e=$(line_of "$work/progress_lines.out" "estimate: "); g=$(line_of "$work/progres
 check progress_quiet 0 "" -- "$pliant" run "$work/slow.json" --out "$work/slow_q" --progress-every 0.2 --quiet
 [ ! -s "$work/progress_quiet.out" ] && ok "--quiet silences plan and progress" || fail "--quiet printed: $(head -c 200 "$work/progress_quiet.out")"
 check bad_progress_every 2 "--progress-every must be a finite number > 0" -- "$pliant" run "$work/slow.json" --out "$work/x" --progress-every 0
+# Real time in frames: the report counts frames of the given length; a negative frame is refused.
+check realtime_frames 0 "of 10 frames of 1 ms ended after" -- "$pliant" run "$work/slow.json" --out "$work/rt" --duration 0.01 --realtime --realtime-frame 0.001
+check bad_realtime_frame 2 "--realtime-frame must be a finite number >= 0" -- "$pliant" run "$work/slow.json" --out "$work/x" --realtime --realtime-frame -1
 
 # A surface in mm without a scale (CGAL builds): the warning comes before meshing starts, so it
 # is seen even when the mesher then refuses the cell size.
