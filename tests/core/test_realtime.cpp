@@ -186,16 +186,18 @@ TEST(RealTime, TheControllerCoarsensAnAdaptiveBodyToKeepTheClock) {
   EXPECT_EQ(fine.controller_coarsened, 0);  // no adaptive body: nothing to control
   EXPECT_NEAR(fine.lag_max_s, 0.3, 2e-5);   // twice too slow: 0.3 s behind after 0.3 s (measured 2.8e-6 s off)
   // Adaptive: the controller starts at its coarsest (cap 0, thresholds x4), finds slack (the coarse
-  // level costs 1/8 of the clock), tries the finest level once, finds it busy (the whole beam splits:
-  // 2x the clock) and comes back at once; it does not try again (the load it measured there, scaled
-  // by the coarse load since, stays above 80%). Measured: 1 refinement, 1 coarsening, 3 of 300 frames
-  // late, lag at most 1.2 ms.
+  // level costs 1/8 of the clock) and tries the finest level; splits come 2 per decision, so the
+  // load rises by steps, and the first frame above 80% of its time sends it back before any frame
+  // is late. It tries again only while the coarse load is below what it was at the last try
+  // (measured: 3 tries, all abandoned, no frame late, no lag; before the split budget, 1 try and 3
+  // late frames; before the busy-rung memory, a try every other window).
   EXPECT_EQ(adaptive.controller_min_cap, 0);
   EXPECT_EQ(adaptive.controller_max_scale, 4.0);
-  EXPECT_EQ(adaptive.controller_refined, 1);
-  EXPECT_EQ(adaptive.controller_coarsened, 1);
-  EXPECT_LE(adaptive.deadline_misses, 10);
-  EXPECT_LT(adaptive.lag_max_s, fine.lag_max_s / 100);
+  EXPECT_GE(adaptive.controller_refined, 1);
+  EXPECT_LE(adaptive.controller_refined, 5);
+  EXPECT_EQ(adaptive.controller_coarsened, adaptive.controller_refined);  // back at the coarsest each time
+  EXPECT_EQ(adaptive.deadline_misses, 0);
+  EXPECT_EQ(adaptive.lag_max_s, 0.0);
 }
 
 TEST(RealTime, ASceneTooSlowEvenAtItsCoarsestLevelSaysSoDuringTheRun) {

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "pliant/scene.hpp"
 #include "pliant/world.hpp"
@@ -264,6 +265,50 @@ TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
   EXPECT_LE(end.apply_seconds, end.check_seconds);
   EXPECT_LE(end.check_max_seconds, end.check_seconds);
   EXPECT_GE(end.check_max_seconds * double(end.checks), end.check_seconds);
+}
+
+TEST(Adaptivity, ASplitBudgetSpreadsARegionsSplitsOverDecisions) {
+  // The bent bar of the test above, unlimited and with at most one split per decision
+  // (World::set_adapt_split_budget, which the real-time controller sets to 2): unlimited, some
+  // decision splits several nodes at once; with the budget, no decision splits more than one, and
+  // the region still refines, over more decisions.
+  World free_w(no_gravity()), budget_w(no_gravity());
+  free_w.add_body(pushed_bar(0.03, true));
+  budget_w.add_body(pushed_bar(0.03, true));
+  EXPECT_EQ(budget_w.adapt_split_budget(0), std::numeric_limits<int>::max());
+  budget_w.set_adapt_split_budget(0, 1);
+  EXPECT_EQ(budget_w.adapt_split_budget(0), 1);
+  std::int64_t most_free = 0, most_budget = 0;
+  std::size_t fine_budget = 0;
+  World::AdaptStats a = free_w.adapt_stats(0), b = budget_w.adapt_stats(0);
+  while (free_w.time() < 0.2) {
+    free_w.step();
+    budget_w.step();
+    const World::AdaptStats a2 = free_w.adapt_stats(0), b2 = budget_w.adapt_stats(0);
+    ASSERT_LE(a2.checks - a.checks, 1) << "one decision point per step here";
+    ASSERT_LE(b2.checks - b.checks, 1);
+    // The splits that refine more (not those keeping a refined region, which no budget limits).
+    most_free = std::max(most_free, (a2.splits - a2.keeping_splits) - (a.splits - a.keeping_splits));
+    most_budget = std::max(most_budget, (b2.splits - b2.keeping_splits) - (b.splits - b.keeping_splits));
+    fine_budget = std::max(fine_budget, budget_w.level_info(0, 1).stepped_tets);
+    a = a2;
+    b = b2;
+  }
+  std::printf("most refining splits in one decision: %lld unlimited, %lld with a budget of 1; %lld and %lld splits by 0.2 s "
+              "(%lld and %lld keeping refined regions); up to %zu fine tets stepped with the budget\n",
+              static_cast<long long>(most_free), static_cast<long long>(most_budget), static_cast<long long>(a.splits),
+              static_cast<long long>(b.splits), static_cast<long long>(a.keeping_splits),
+              static_cast<long long>(b.keeping_splits), fine_budget);
+  EXPECT_GT(most_free, 1);
+  EXPECT_EQ(most_budget, 1);
+  EXPECT_GT(b.splits, 1);
+  EXPECT_GT(fine_budget, 0u);
+  try {
+    budget_w.set_adapt_split_budget(0, 0);
+    ADD_FAILURE() << "a budget of 0 was accepted";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("set_adapt_split_budget"));
+  }
 }
 
 TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {

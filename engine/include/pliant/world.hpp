@@ -169,6 +169,10 @@ class World {
     double check_seconds = 0;             // s of wall time of the decision points, applies included
     double check_max_seconds = 0;         // s, the longest of them
     std::int64_t touched_nodes = 0, touched_tets = 0;  // nodes and tets the applies read or wrote (their work)
+    // Of `splits`, those of nodes inside a region already refined by their neighbours: they keep
+    // that refinement (no merge drops detail nobody measured) rather than add to it, and the split
+    // budget does not limit them.
+    std::int64_t keeping_splits = 0;
   };
   AdaptStats adapt_stats(BodyId body) const;  // zeros for a body that is not adaptive
   // At its next decision, an adaptive body activates every node up to `level` (0: the coarsest
@@ -184,6 +188,14 @@ class World {
   // thresholds is not enough.
   void set_adapt_cap(BodyId body, int level);
   int adapt_cap(BodyId body) const;
+  // At most `splits` nodes split at each decision of an adaptive body (>= 1; the first ones in the
+  // decision's fixed order, coarse to fine; the others wait for the next decision); merges and
+  // force_level are not limited. Bounds what one change costs (a split applies in ~0.2 ms on the
+  // 50k-tet organ): the real-time controller sets 2, so that refining grows a region over
+  // successive decisions and a frame never has to absorb a whole region's split at once.
+  // Unlimited by default (std::numeric_limits<int>::max()).
+  void set_adapt_split_budget(BodyId body, int splits);
+  int adapt_split_budget(BodyId body) const;
 
   // ---- skins (pliant/skin.hpp, BodyDef::skin) ----
   bool has_skin(BodyId body) const;

@@ -373,7 +373,12 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   //    found busy: then only if the load it measured there, scaled by how the load here changed
   //    since, would now stay below kBusy (without this memory, a rung that costs 0.9 of the clock was
   //    retried every other window, missing frames each time).
+  //  - Each decision may split at most kSplitsPerDecision nodes (World::set_adapt_split_budget): a
+  //    region refines over successive decisions, so that the load rises by steps the controller
+  //    sees, and no frame absorbs a whole region's split (one split applies in ~0.2 ms on the
+  //    50k-tet organ; lifting its cap from level 0 to 1 split ~40 nodes at once, a 2-4 ms frame).
   constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 4;
+  constexpr int kSplitsPerDecision = 2;
   std::vector<BodyId> adaptive_bodies;
   for (std::size_t b = 0; b < world.body_count(); ++b)
     if (world.body_def(BodyId(b)).multiresolution.levels > 1 &&
@@ -403,7 +408,10 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     s.controller_max_scale = std::max(s.controller_max_scale, scale);
     if (cap < finest) s.controller_min_cap = s.controller_min_cap < 0 ? cap : std::min(s.controller_min_cap, cap);
   };
-  if (realtime && !adaptive_bodies.empty()) apply_rung();
+  if (realtime && !adaptive_bodies.empty()) {
+    for (BodyId b : adaptive_bodies) world.set_adapt_split_budget(b, kSplitsPerDecision);
+    apply_rung();
+  }
   bool estimated = false, coarsest_warned = false;
   double next_progress = options.progress_every;
   try {

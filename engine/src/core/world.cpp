@@ -553,7 +553,8 @@ World::AdaptStats World::adapt_stats(BodyId b) const {
     const auto& body = impl_->body(s, b);
     if (body.adapt)
       a = {body.adapt->splits,        body.adapt->merges,        body.adapt->checks, body.adapt->changes,
-           body.adapt->apply_seconds, body.adapt->check_seconds, body.adapt->check_max_seconds, body.adapt->touched_nodes, body.adapt->touched_tets};
+           body.adapt->apply_seconds, body.adapt->check_seconds, body.adapt->check_max_seconds, body.adapt->touched_nodes, body.adapt->touched_tets,
+           body.adapt->keeping_splits};
     return a;
   });
 }
@@ -574,6 +575,21 @@ void World::set_adapt_scale(BodyId b, double scale) {
     auto& body = impl_->body(s, b);
     if (!body.adapt) throw InputError(fmt::format("set_adapt_scale: body '{}' is not adaptive (multiresolution.active)", body.def.name));
     body.adapt->scale = scale;
+  });
+}
+void World::set_adapt_split_budget(BodyId b, int splits) {
+  if (splits < 1) throw InputError(fmt::format("set_adapt_split_budget: the budget must be >= 1 split per decision, got {}", splits));
+  impl_->visit([&](auto& s) {
+    auto& body = impl_->body(s, b);
+    if (!body.adapt)
+      throw InputError(fmt::format("set_adapt_split_budget: body '{}' is not adaptive (multiresolution.active)", body.def.name));
+    body.adapt->split_budget = splits;
+  });
+}
+int World::adapt_split_budget(BodyId b) const {
+  return impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    return body.adapt ? body.adapt->split_budget : std::numeric_limits<int>::max();
   });
 }
 void World::set_adapt_cap(BodyId b, int level) {

@@ -105,6 +105,7 @@ class ActivationState {
   std::vector<std::vector<int>> targets_;
   std::vector<std::vector<std::uint8_t>> present_, refined_, stepped_;
   std::vector<std::vector<std::int32_t>> stepped_incident_;  // per level, per node: stepped tets around it
+  std::vector<std::size_t> stepped_count_;                   // per level: its stepped tets
   std::vector<std::vector<NodeRole>> role_;
   std::vector<std::vector<std::vector<GhostSource>>> sources_;
   // per level, per node: the ghosts (level, node) that read it (it is a corner of the tet they read)

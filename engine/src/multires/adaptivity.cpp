@@ -286,6 +286,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
 
   // 2. Decisions, coarse to fine, nodes in order (deterministic).
   bool any = false;
+  int splits_left = st.split_budget;  // World::set_adapt_split_budget: the rest wait for the next decision
   for (int l = 0; l + 1 < levels; ++l) {
     const Level<T>& L = body.levels[std::size_t(l)];
     auto& calm = st.calm_since[std::size_t(l)];
@@ -315,11 +316,19 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
         // (a bent 3-level bar went from its 752 finest tets to its 12 coarsest at once).
         const bool refined_around = L.state[std::size_t(i)] == kNodeInactive &&
                                     detail_of(l, i, restricted_now[std::size_t(l)]) >= merge_below;
-        if (l + 1 <= st.cap && (refined_around || (L.state[std::size_t(i)] == kNodeFree &&
-            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)))))) {
+        // The budget limits the splits that refine more; a node inside a refined region splits
+        // whatever it is (it keeps refinement that is there: the merge it prevents is the bug above).
+        const bool refine = splits_left > 0 && L.state[std::size_t(i)] == kNodeFree &&
+                            (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)));
+        if (l + 1 <= st.cap && (refined_around || refine)) {
           as.set_target(l, i, l + 1);
           calm[std::size_t(i)] = -1;
           ++st.splits;
+          if (refined_around) {
+            ++st.keeping_splits;
+          } else {
+            --splits_left;
+          }
           any = true;
         }
       } else if (target == l + 1) {

@@ -11,6 +11,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -32,8 +33,10 @@ struct AdaptiveState {
   std::vector<double> edge;                    // per level: mean edge length at rest (m), the scale of the merge measure
   std::vector<std::vector<double>> calm_since;  // per level, per node: time its children became calm (-1: not calm)
   std::int64_t splits = 0, merges = 0, checks = 0, changes = 0;
+  std::int64_t keeping_splits = 0;             // of splits, those inside refined regions (World::AdaptStats)
   double scale = 1;                            // both thresholds times this (the real-time controller raises it to coarsen)
   int cap = 1 << 20;                           // no node is split beyond this level; split nodes above it merge at once
+  int split_budget = std::numeric_limits<int>::max();  // splits per decision at most (World::set_adapt_split_budget)
   double peak_strain = 0;                      // the body's largest |E| at the last decision (diagnostics)
   int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
   double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
