@@ -527,16 +527,8 @@ void current_state(const SimBody<T>& body, const Level<T>& L, CurrentState<T>& o
     out.v[k].assign(L.v[k].begin(), L.v[k].end());
   }
   for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
-    double x[3] = {0, 0, 0}, v[3] = {0, 0, 0};
-    for (auto e = L.ghost_offsets[i]; e < L.ghost_offsets[i + 1]; ++e) {
-      const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
-      const auto n = std::size_t(L.ghost_source_node[std::size_t(e)]);
-      const double w = L.ghost_weight[std::size_t(e)];
-      for (int k = 0; k < 3; ++k) {
-        x[k] += w * double(S.x[k][n]);
-        v[k] += w * double(S.v[k][n]);
-      }
-    }
+    double x[3], v[3];
+    ghost_now(body, L, i, x, v);
     const auto g = std::size_t(L.ghosts[i]);
     for (int k = 0; k < 3; ++k) {
       out.x[k][g] = T(x[k]);

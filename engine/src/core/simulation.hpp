@@ -181,6 +181,22 @@ struct CurrentState {
 };
 template <class T>
 void current_state(const SimBody<T>& body, const Level<T>& L, CurrentState<T>& out);
+// Where ghost g of level L (its index in L.ghosts) is now, and how fast it moves: its sources'
+// positions and velocities weighted, summed in double in the order of its entries (current_state
+// rounds these to T; the adaptive decisions take them the same way).
+template <class T>
+void ghost_now(const SimBody<T>& body, const Level<T>& L, std::size_t g, double x[3], double v[3]) {
+  for (int k = 0; k < 3; ++k) x[k] = v[k] = 0;
+  for (auto e = L.ghost_offsets[g]; e < L.ghost_offsets[g + 1]; ++e) {
+    const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
+    const auto n = std::size_t(L.ghost_source_node[std::size_t(e)]);
+    const double w = L.ghost_weight[std::size_t(e)];
+    for (int k = 0; k < 3; ++k) {
+      x[k] += w * double(S.x[k][n]);
+      v[k] += w * double(S.v[k][n]);
+    }
+  }
+}
 // One node's current position (m): its own, or for a ghost where its sources are now.
 template <class T>
 Vec3d node_now(const SimBody<T>& body, const Level<T>& L, std::size_t node) {

@@ -56,16 +56,8 @@ void field_now(const SimBody<T>& body, std::vector<std::vector<double>>& x, std:
         }
     }
     for (std::size_t g = 0; g < L.ghosts.size(); ++g) {
-      double gx[3] = {0, 0, 0}, gv[3] = {0, 0, 0};
-      for (auto e = L.ghost_offsets[g]; e < L.ghost_offsets[g + 1]; ++e) {
-        const Level<T>& S = body.levels[std::size_t(L.ghost_source_level[std::size_t(e)])];
-        const auto src = std::size_t(L.ghost_source_node[std::size_t(e)]);
-        const double w = L.ghost_weight[std::size_t(e)];
-        for (int k = 0; k < 3; ++k) {
-          gx[k] += w * double(S.x[k][src]);
-          gv[k] += w * double(S.v[k][src]);
-        }
-      }
+      double gx[3], gv[3];
+      ghost_now(body, L, g, gx, gv);
       const auto i = std::size_t(L.ghosts[g]);
       for (std::size_t k = 0; k < 3; ++k) {
         x[3 * l + k][i] = double(T(gx[k]));
