@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
+#include "tet_batch.hpp"
 #include "tet_local.hpp"
 
 namespace pliant {
@@ -84,47 +86,127 @@ void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range r, double* r
   }
 }
 
+namespace {
+
+// One corotational tet's ratio: the scalar code (element_stiffness_ratio_corotational_scalar,
+// and the lanes' fallback for tets off the fast path).
 template <class T>
-void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
+double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
   const double lambda = double(c.lambda), mu = double(c.mu);
   const double rest = 3 * lambda + 2 * mu;  // Pa: the scaling block's largest eigenvalue, at any F
-  for (std::size_t t = r.begin; t < r.end; ++t) {
-    TetLocal<T> e;
-    std::int32_t n[4];
-    detail::load_tet(c, t, e, n);
-    const Mat3<T> F = detail::corner_gradient(e.x, e.g);
-    // The rotation the last force pass stored (one step old): close enough for a monitor, and the
-    // rotation iteration would cost more than the rest of this pass.
-    const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
-    const Mat3<T> R = detail::quat_to_matrix(q);
-    double RtF[9];
-    sym_to_double(detail::mul_tn(R, F), RtF);
-    // Fast path: with e = S - I and eps = |e|_F >= max |s_i - 1|, every twist mode is at most
-    // (4 mu + 6 lambda) eps / (2 (1 - eps)) = (3 lambda + 2 mu) eps / (1 - eps), below the scaling
-    // mode while eps <= 1/2: the ratio is then exactly 1, without eigenvalues.
-    double e2 = 0;
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) {
-        const double e = RtF[3 * i + j] - (i == j ? 1.0 : 0.0);
-        e2 += e * e;
-      }
-    if (e2 <= 0.25) {
-      ratio[t] = 1;
-      continue;
+  TetLocal<T> e;
+  std::int32_t n[4];
+  detail::load_tet(c, t, e, n);
+  const Mat3<T> F = detail::corner_gradient(e.x, e.g);
+  // The rotation the last force pass stored (one step old): close enough for a monitor, and the
+  // rotation iteration would cost more than the rest of this pass.
+  const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
+  const Mat3<T> R = detail::quat_to_matrix(q);
+  double RtF[9];
+  sym_to_double(detail::mul_tn(R, F), RtF);
+  // Fast path: with e = S - I and eps = |e|_F >= max |s_i - 1|, every twist mode is at most
+  // (4 mu + 6 lambda) eps / (2 (1 - eps)) = (3 lambda + 2 mu) eps / (1 - eps), below the scaling
+  // mode while eps <= 1/2: the ratio is then exactly 1, without eigenvalues.
+  double e2 = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double d = RtF[3 * i + j] - (i == j ? 1.0 : 0.0);
+      e2 += d * d;
     }
-    double s[3];  // signed principal stretches
-    symmetric_eigenvalues3(RtF, s);
-    const double trS = s[0] + s[1] + s[2];
-    double psi[3];
-    for (int i = 0; i < 3; ++i) psi[i] = 2 * mu * (s[i] - 1) + lambda * (trS - 3);  // principal stresses (Pa)
-    double top = rest;  // scaling: 2 mu + 3 lambda; flip: 2 mu, below it
-    for (int i = 0; i < 3; ++i)
-      for (int j = i + 1; j < 3; ++j) {
-        const double den = std::max(std::fabs(s[i] + s[j]), kMinStretchSum);
-        top = std::max(top, std::fabs(psi[i] + psi[j]) / den);
-      }
-    ratio[t] = top / rest;
+  if (e2 <= 0.25) return 1;
+  double s[3];  // signed principal stretches
+  symmetric_eigenvalues3(RtF, s);
+  const double trS = s[0] + s[1] + s[2];
+  double psi[3];
+  for (int i = 0; i < 3; ++i) psi[i] = 2 * mu * (s[i] - 1) + lambda * (trS - 3);  // principal stresses (Pa)
+  double top = rest;  // scaling: 2 mu + 3 lambda; flip: 2 mu, below it
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j) {
+      const double den = std::max(std::fabs(s[i] + s[j]), kMinStretchSum);
+      top = std::max(top, std::fabs(psi[i] + psi[j]) / den);
+    }
+  return top / rest;
+}
+
+// The fast-path test of corotational_ratio on the W tets [t, t + count) at once, one per lane:
+// F, R and R^T F in T with the helpers the scalar code calls (the same bits per lane), then
+// e2 = |sym(R^T F) - I|_F^2 in double with the scalar code's operations in its order (float ->
+// double is exact). Returns the lanes with e2 <= 1/4 (NaN fails, as in the scalar test): their
+// ratio is exactly 1. Lanes past `count` repeat the last tet.
+template <class T>
+typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, std::size_t t, int count) {
+  using V = typename simd::Pack<T>::V;
+  using M = typename simd::Pack<T>::M;
+  constexpr int W = simd::Pack<T>::W;
+  typedef double D __attribute__((vector_size(W * sizeof(double))));   // W doubles
+  typedef std::int64_t DM __attribute__((vector_size(W * sizeof(double))));
+  detail::TetBatch<T> e;
+  for (int a = 0; a < 4; ++a) {
+    if (count == W) {
+      std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
+    } else {
+      for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
+    }
   }
+  // Positions from x[3][n] as the scalar code reads them (not the interleaved copy xp, which
+  // only the force pass keeps current).
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) e.x[a][k] = simd::gather(c.x[k], e.n[a]);
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
+  const Mat3<V> F = detail::corner_gradient(e.x, e.g);
+  V q[4];
+  for (int k = 0; k < 4; ++k) q[k] = simd::load(c.rotation[k] + t, count);
+  const Mat3<V> RtF = detail::mul_tn(detail::quat_to_matrix(q), F);
+  D m[3][3];
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) m[i][j] = __builtin_convertvector(RtF.m[i][j], D);
+  D e2 = D{};
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const D d = 0.5 * (m[i][j] + m[j][i]) - (i == j ? 1.0 : 0.0);  // sym_to_double, then - I
+      e2 += d * d;
+    }
+  const DM fast = e2 <= 0.25;
+  return __builtin_convertvector(fast, M);
+}
+
+// Ratios of the tets [r.begin, r.end), W at a time: lanes on the fast path give 1, the others
+// the scalar code. out(t, ratio) is called for every tet off the fast path in ascending order,
+// and (when Ones) for the fast ones too.
+template <class T, bool Ones, class Out>
+void corotational_ratios(const ElementContext<T>& c, Range r, const Out& out) {
+  constexpr int W = simd::Pack<T>::W;
+  for (std::size_t t = r.begin; t < r.end; t += W) {
+    const int count = int(std::min<std::size_t>(W, r.end - t));
+    const auto fast = corotational_fast_lanes(c, t, count);
+    for (int l = 0; l < count; ++l) {
+      if (fast[l]) {
+        if constexpr (Ones) out(t + std::size_t(l), 1.0);
+      } else {
+        out(t + std::size_t(l), corotational_ratio(c, t + std::size_t(l)));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+template <class T>
+void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
+  corotational_ratios<T, true>(c, r, [&](std::size_t t, double v) { ratio[t] = v; });
+}
+
+template <class T>
+double element_stiffness_ratio_corotational_max(const ElementContext<T>& c, Range r) {
+  double top = 1;
+  corotational_ratios<T, false>(c, r, [&](std::size_t, double v) { top = std::max(top, v); });
+  return top;
+}
+
+template <class T>
+void element_stiffness_ratio_corotational_scalar(const ElementContext<T>& c, Range r, double* ratio) {
+  for (std::size_t t = r.begin; t < r.end; ++t) ratio[t] = corotational_ratio(c, t);
 }
 
 template <class T>
@@ -152,6 +234,8 @@ void element_stiffness_ratio_springs(const ElementContext<T>& c, Range r, double
 #define PLIANT_INSTANTIATE(T)                                                                      \
   template void element_stiffness_ratio_stvk<T>(const ElementContext<T>&, Range, double*);         \
   template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*); \
+  template double element_stiffness_ratio_corotational_max<T>(const ElementContext<T>&, Range);     \
+  template void element_stiffness_ratio_corotational_scalar<T>(const ElementContext<T>&, Range, double*); \
   template void element_stiffness_ratio_springs<T>(const ElementContext<T>&, Range, double*);
 PLIANT_INSTANTIATE(float)
 PLIANT_INSTANTIATE(double)
