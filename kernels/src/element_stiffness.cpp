@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <type_traits>
 
 #include "tet_batch.hpp"
 #include "tet_local.hpp"
@@ -130,16 +131,15 @@ double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
 
 // The fast-path test of corotational_ratio on the W tets [t, t + count) at once, one per lane:
 // F, R and R^T F in T with the helpers the scalar code calls (the same bits per lane), then
-// e2 = |sym(R^T F) - I|_F^2 in double with the scalar code's operations in its order (float ->
-// double is exact). Returns the lanes with e2 <= 1/4 (NaN fails, as in the scalar test): their
-// ratio is exactly 1. Lanes past `count` repeat the last tet.
+// e2 = |sym(R^T F) - I|_F^2: for double the scalar code's operations in its order, for float in
+// float lanes with a margin (below). Returns lanes whose ratio is exactly 1 by the scalar test
+// (NaN fails, as there); the others run the scalar code. Lanes past `count` repeat the last tet.
+// (Float lanes with the double test, converted, made the monitor twice as slow.)
 template <class T>
 typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, std::size_t t, int count) {
   using V = typename simd::Pack<T>::V;
   using M = typename simd::Pack<T>::M;
   constexpr int W = simd::Pack<T>::W;
-  typedef double D __attribute__((vector_size(W * sizeof(double))));   // W doubles
-  typedef std::int64_t DM __attribute__((vector_size(W * sizeof(double))));
   detail::TetBatch<T> e;
   for (int a = 0; a < 4; ++a) {
     if (count == W) {
@@ -148,27 +148,47 @@ typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, st
       for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
     }
   }
-  // Positions from x[3][n] as the scalar code reads them (not the interleaved copy xp, which
-  // only the force pass keeps current).
-  for (int a = 0; a < 4; ++a)
-    for (int k = 0; k < 3; ++k) e.x[a][k] = simd::gather(c.x[k], e.n[a]);
+  // Positions: from the interleaved copy when the context has one (the caller packed it from x
+  // just before: the same values the scalar code reads from x), else gathered from x[3][n].
+  detail::load_positions(c, e);
   for (int a = 0; a < 3; ++a)
     for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
   const Mat3<V> F = detail::corner_gradient(e.x, e.g);
   V q[4];
   for (int k = 0; k < 4; ++k) q[k] = simd::load(c.rotation[k] + t, count);
   const Mat3<V> RtF = detail::mul_tn(detail::quat_to_matrix(q), F);
-  D m[3][3];
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) m[i][j] = __builtin_convertvector(RtF.m[i][j], D);
-  D e2 = D{};
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) {
-      const D d = 0.5 * (m[i][j] + m[j][i]) - (i == j ? 1.0 : 0.0);  // sym_to_double, then - I
+  if constexpr (std::is_same_v<T, double>) {
+    // The scalar test itself (sym_to_double, then - I, squares summed in the same order).
+    V e2 = V{};
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        const V d = 0.5 * (RtF.m[i][j] + RtF.m[j][i]) - (i == j ? 1.0 : 0.0);
+        e2 += d * d;
+      }
+    return e2 <= 0.25;
+  } else {
+    // Float: the same sum in float lanes, against 1/4 less a margin, so that a lane that passes
+    // also passes the scalar test in double. From the same float R^T F, each term d = sym - I
+    // differs from the double one by at most ~2.5 u (u = 2^-24; the sum of the two floats is
+    // rounded relative to itself, the - 1 cancels only an error of u |S_ii| <= 1.5 u, as
+    // |d| <= 1/2 wherever e2 is near 1/4), each square by ~2.5 u and the 9-term sum by ~8 u of
+    // 1/4: e2 in float is within ~30 u = 1.8e-6 of e2 in double. The margin, 1e-4, is 50 times
+    // that. A lane in the margin or above (or NaN, or overflowed) runs the scalar code, which
+    // decides exactly; so the ratios are the scalar code's in every case.
+    V e2 = V{};
+    for (int i = 0; i < 3; ++i) {
+      const V d = RtF.m[i][i] - 1.0f;
       e2 += d * d;
     }
-  const DM fast = e2 <= 0.25;
-  return __builtin_convertvector(fast, M);
+    V off = V{};
+    for (int i = 0; i < 3; ++i)
+      for (int j = i + 1; j < 3; ++j) {
+        const V d = 0.5f * (RtF.m[i][j] + RtF.m[j][i]);
+        off += d * d;
+      }
+    e2 += 2.0f * off;
+    return e2 <= 0.2499f;
+  }
 }
 
 // Ratios of the tets [r.begin, r.end), W at a time: lanes on the fast path give 1, the others
@@ -180,6 +200,7 @@ void corotational_ratios(const ElementContext<T>& c, Range r, const Out& out) {
   for (std::size_t t = r.begin; t < r.end; t += W) {
     const int count = int(std::min<std::size_t>(W, r.end - t));
     const auto fast = corotational_fast_lanes(c, t, count);
+    if (!Ones && !simd::any(~fast)) continue;  // every lane at ratio 1 (lanes past count repeat the last)
     for (int l = 0; l < count; ++l) {
       if (fast[l]) {
         if constexpr (Ones) out(t + std::size_t(l), 1.0);

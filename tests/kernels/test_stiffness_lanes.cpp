@@ -1,9 +1,11 @@
 // The corotational deformation monitor tests its fast path (|R^T F - I|_F^2 <= 1/4: ratio exactly
 // 1) W tets at a time in vector lanes and runs the scalar code on the lanes that fail it
-// (kernels/element_stiffness.hpp). Neither that nor folding the max into the kernel may change a
-// result: every ratio must be the bits of the one-tet-at-a-time scalar code, for any range split
-// (full and partial batches), on tets near rest, stretched, inverted, flattened and non-finite,
-// with stored rotations near and far from the tets' own.
+// (kernels/element_stiffness.hpp). Neither that, nor folding the max into the kernel, nor reading
+// corners from the interleaved copy of x may change a result: every ratio must be the bits of the
+// one-tet-at-a-time scalar code, for any range split (full and partial batches), on tets near
+// rest, stretched, inverted, flattened and non-finite, with stored rotations near and far from
+// the tets' own. (What is compared is the ratios: the fast-path test is conservative, so a lane
+// mask that differed from the scalar test only just above e2 = 1/4 would still give ratio 1.)
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +18,7 @@
 
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/element_stiffness.hpp"
+#include "pliant/kernels/node_passes.hpp"
 
 namespace pliant {
 namespace {
@@ -166,6 +169,19 @@ void check_lanes(std::size_t n, unsigned seed, bool poison) {
   }
   EXPECT_TRUE(same_bits(scalar, lanes));
   EXPECT_EQ(element_stiffness_ratio_corotational_max(m.c, Range{0, n}), fold_max(scalar, Range{0, n}));
+  // Corners from the interleaved copy of x (ElementContext::xp, packed as the step packs it), as
+  // the monitor reads them where packed corners pay: the same ratios.
+  std::vector<T> xp(4 * 4 * n, T(-7));
+  PackContext<T> pc;
+  for (int k = 0; k < 3; ++k) pc.x[k] = m.x[k].data();
+  pc.xp = xp.data();
+  pack_positions(pc, Range{0, 4 * n});
+  m.c.xp = xp.data();
+  std::fill(lanes.begin(), lanes.end(), unset);
+  element_stiffness_ratio_corotational(m.c, Range{0, n}, lanes.data());
+  EXPECT_TRUE(same_bits(scalar, lanes));
+  EXPECT_EQ(element_stiffness_ratio_corotational_max(m.c, Range{3, n - 5}), fold_max(scalar, Range{3, n - 5}));
+  m.c.xp = nullptr;
   // The monitor reads and never writes: stored rotations and corner forces untouched.
   Tets<T> fresh(n, seed);
   for (int k = 0; k < 4; ++k) EXPECT_TRUE(fresh.rot[k] == m.rot[k]);

@@ -707,7 +707,17 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels) {
       if (L.model == ForceModel::linear) continue;
-      const ElementContext<T> ec = element_context(L);
+      ElementContext<T> ec = element_context(L);
+      if (L.model == ForceModel::corotational && pack_pays(L, L.stepped_count)) {
+        // The corotational lanes load corners from the interleaved copy, as the force pass does
+        // (4 loads and a transpose per corner instead of 3 gathers): packed here from x, the
+        // positions measured. The next tick packs x again before its element pass, so writing
+        // the level's step-private copy changes nothing else.
+        Level<T>& mutable_level = const_cast<Level<T>&>(L);
+        const PackContext<T> pc = pack_context(mutable_level);
+        exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { pack_positions(pc, r); });
+        ec.xp = pc.xp;
+      }
       if (L.model != ForceModel::corotational) scratch.resize(L.tet_count);
       double* out = scratch.data();
       for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)

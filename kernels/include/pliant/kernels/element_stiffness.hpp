@@ -60,7 +60,8 @@ namespace pliant {
 inline constexpr double kMinStretchSum = 1e-3;
 
 // ratio[t] = (largest |eigenvalue| of the Hessian of psi at the tet's current F) / (3 lambda + 2 mu),
-// for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations).
+// for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations),
+// and its lanes read the positions from c.xp when it is set (which must then hold x, packed).
 template <class T> void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range tets, double* ratio);
 template <class T> void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range tets, double* ratio);
 // The largest ratio of the range and 1, without writing per-tet ratios (what World's monitor
