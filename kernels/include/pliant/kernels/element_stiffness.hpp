@@ -46,10 +46,12 @@
 // Corotational fast path in vector lanes: with eps = |R^T F - I|_F <= 1/2 the ratio is exactly 1
 // (element_stiffness.cpp says why), which is every tet of a body that is not far from rest. The
 // kernel tests that W tets at a time, one per lane (F, R and R^T F with the helpers of the force
-// passes, the sum of squares in double in the scalar order: the same bits as the scalar code),
-// and runs the scalar code only on the lanes that fail it (tests/kernels/test_stiffness_lanes.cpp:
-// the same ratios as the one-tet-at-a-time code). On the default scene this made the monitor's
-// step cost about a tenth of a force pass instead of 1.5 (docs/performance.md "Small bodies").
+// passes, the same bits as the scalar code; the sum of squares in double in the scalar order, or
+// for float in float against 1/4 less a margin that covers the difference), and runs the scalar
+// code on every lane that does not pass (tests/kernels/test_stiffness_lanes.cpp: the same ratios
+// as the one-tet-at-a-time code). On the default scene this made the monitor
+// cost about a third of a force pass instead of 1.5 (perf, 1 thread; docs/performance.md "Small
+// bodies: the deformation monitor and chunk ownership").
 #pragma once
 #include "pliant/kernels/element_context.hpp"
 #include "pliant/kernels/range.hpp"
