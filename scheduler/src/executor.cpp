@@ -82,14 +82,15 @@ constexpr int kSpinsBeforeYield = 1024;
 // sees these atomics). Each counter on its own cache line: the claims of one thread do not
 // disturb the other's wait.
 //
-// Why own blocks (they were claimed from one shared counter, in order, until 2026-11-25): the
+// Why own blocks (chunks were claimed from one shared counter, in order, until 2026-11-25): the
 // passes of a tick hand data on from phase to phase (positions packed by node, corner forces
 // written by tet, gathered by node), and meshes are numbered for locality, so chunk k of one
-// phase mostly reads what chunk k of the phase before wrote. With a shared counter, which thread
-// got chunk k changed from phase to phase and tick to tick, and the gather read half its corner
-// forces from the other core's cache: on 2 threads the default scene's gather_integrate took
-// as long per thread as the whole pass on 1 thread (perf). Which thread runs which chunk never
-// changes a result (disjoint outputs).
+// phase mostly reads what chunk k of the phase before wrote; with a shared counter, which thread
+// got chunk k changed from phase to phase and tick to tick. Measured (docs/performance.md, "Small
+// bodies: the deformation monitor and chunk ownership", 2 threads, step p50): the default scene
+// 55.0 -> 50.8 us, multires_organ 34.8 -> 32.2, a 2k-tet box 26.9 -> 25.8, but a 4k-tet box
+// 36.9 -> 39.7 (not understood). The gather still costs each thread about as long as the whole
+// gather on 1 thread. Which thread runs which chunk never changes a result (disjoint outputs).
 struct RegionCounters {
   alignas(64) std::atomic<std::uint32_t> slots{0};
   alignas(64) std::atomic<std::uint32_t> done{0};
