@@ -4,7 +4,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 
+#include "tet_batch.hpp"
 #include "tet_local.hpp"
 
 namespace pliant {
@@ -84,47 +87,147 @@ void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range r, double* r
   }
 }
 
+namespace {
+
+// One corotational tet's ratio: the scalar code (element_stiffness_ratio_corotational_scalar,
+// and the lanes' fallback for tets off the fast path).
 template <class T>
-void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
+double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
   const double lambda = double(c.lambda), mu = double(c.mu);
   const double rest = 3 * lambda + 2 * mu;  // Pa: the scaling block's largest eigenvalue, at any F
-  for (std::size_t t = r.begin; t < r.end; ++t) {
-    TetLocal<T> e;
-    std::int32_t n[4];
-    detail::load_tet(c, t, e, n);
-    const Mat3<T> F = detail::corner_gradient(e.x, e.g);
-    // The rotation the last force pass stored (one step old): close enough for a monitor, and the
-    // rotation iteration would cost more than the rest of this pass.
-    const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
-    const Mat3<T> R = detail::quat_to_matrix(q);
-    double RtF[9];
-    sym_to_double(detail::mul_tn(R, F), RtF);
-    // Fast path: with e = S - I and eps = |e|_F >= max |s_i - 1|, every twist mode is at most
-    // (4 mu + 6 lambda) eps / (2 (1 - eps)) = (3 lambda + 2 mu) eps / (1 - eps), below the scaling
-    // mode while eps <= 1/2: the ratio is then exactly 1, without eigenvalues.
-    double e2 = 0;
+  TetLocal<T> e;
+  std::int32_t n[4];
+  detail::load_tet(c, t, e, n);
+  const Mat3<T> F = detail::corner_gradient(e.x, e.g);
+  // The rotation the last force pass stored (one step old): close enough for a monitor, and the
+  // rotation iteration would cost more than the rest of this pass.
+  const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
+  const Mat3<T> R = detail::quat_to_matrix(q);
+  double RtF[9];
+  sym_to_double(detail::mul_tn(R, F), RtF);
+  // Fast path: with e = S - I and eps = |e|_F >= max |s_i - 1|, every twist mode is at most
+  // (4 mu + 6 lambda) eps / (2 (1 - eps)) = (3 lambda + 2 mu) eps / (1 - eps), below the scaling
+  // mode while eps <= 1/2: the ratio is then exactly 1, without eigenvalues.
+  double e2 = 0;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) {
+      const double d = RtF[3 * i + j] - (i == j ? 1.0 : 0.0);
+      e2 += d * d;
+    }
+  if (e2 <= 0.25) return 1;
+  double s[3];  // signed principal stretches
+  symmetric_eigenvalues3(RtF, s);
+  const double trS = s[0] + s[1] + s[2];
+  double psi[3];
+  for (int i = 0; i < 3; ++i) psi[i] = 2 * mu * (s[i] - 1) + lambda * (trS - 3);  // principal stresses (Pa)
+  double top = rest;  // scaling: 2 mu + 3 lambda; flip: 2 mu, below it
+  for (int i = 0; i < 3; ++i)
+    for (int j = i + 1; j < 3; ++j) {
+      const double den = std::max(std::fabs(s[i] + s[j]), kMinStretchSum);
+      top = std::max(top, std::fabs(psi[i] + psi[j]) / den);
+    }
+  return top / rest;
+}
+
+// The fast-path test of corotational_ratio on the W tets [t, t + count) at once, one per lane:
+// F, R and R^T F in T with the helpers the scalar code calls (the same bits per lane), then
+// e2 = |sym(R^T F) - I|_F^2: for double the scalar code's operations in its order, for float in
+// float lanes with a margin (below). Returns lanes whose ratio is exactly 1 by the scalar test
+// (NaN fails, as there); the others run the scalar code. Lanes past `count` repeat the last tet.
+// (Float lanes with the double test, converted, made the monitor twice as slow.)
+template <class T>
+typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, std::size_t t, int count) {
+  using V = typename simd::Pack<T>::V;
+  using M = typename simd::Pack<T>::M;
+  constexpr int W = simd::Pack<T>::W;
+  detail::TetBatch<T> e;
+  for (int a = 0; a < 4; ++a) {
+    if (count == W) {
+      std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
+    } else {
+      for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
+    }
+  }
+  // Positions: from the interleaved copy when the context has one (the caller packed it from x
+  // just before: the same values the scalar code reads from x), else gathered from x[3][n].
+  detail::load_positions(c, e);
+  for (int a = 0; a < 3; ++a)
+    for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
+  const Mat3<V> F = detail::corner_gradient(e.x, e.g);
+  V q[4];
+  for (int k = 0; k < 4; ++k) q[k] = simd::load(c.rotation[k] + t, count);
+  const Mat3<V> RtF = detail::mul_tn(detail::quat_to_matrix(q), F);
+  if constexpr (std::is_same_v<T, double>) {
+    // The scalar test itself (sym_to_double, then - I, squares summed in the same order).
+    V e2 = V{};
     for (int i = 0; i < 3; ++i)
       for (int j = 0; j < 3; ++j) {
-        const double e = RtF[3 * i + j] - (i == j ? 1.0 : 0.0);
-        e2 += e * e;
+        const V d = 0.5 * (RtF.m[i][j] + RtF.m[j][i]) - (i == j ? 1.0 : 0.0);
+        e2 += d * d;
       }
-    if (e2 <= 0.25) {
-      ratio[t] = 1;
-      continue;
+    return e2 <= 0.25;
+  } else {
+    // Float: the same sum in float lanes, against 1/4 less a margin, so that a lane that passes
+    // also passes the scalar test in double. From the same float R^T F, each term d = sym - I
+    // differs from the double one by at most ~2.5 u (u = 2^-24; the sum of the two floats is
+    // rounded relative to itself, the - 1 cancels only an error of u |S_ii| <= 1.5 u, as
+    // |d| <= 1/2 wherever e2 is near 1/4), each square by ~2.5 u and the 9-term sum by ~8 u of
+    // 1/4: e2 in float is within ~30 u = 1.8e-6 of e2 in double. The margin, 1e-4, is 50 times
+    // that. A lane in the margin or above (or NaN, or overflowed) runs the scalar code, which
+    // decides exactly; so the ratios are the scalar code's in every case.
+    V e2 = V{};
+    for (int i = 0; i < 3; ++i) {
+      const V d = RtF.m[i][i] - 1.0f;
+      e2 += d * d;
     }
-    double s[3];  // signed principal stretches
-    symmetric_eigenvalues3(RtF, s);
-    const double trS = s[0] + s[1] + s[2];
-    double psi[3];
-    for (int i = 0; i < 3; ++i) psi[i] = 2 * mu * (s[i] - 1) + lambda * (trS - 3);  // principal stresses (Pa)
-    double top = rest;  // scaling: 2 mu + 3 lambda; flip: 2 mu, below it
+    V off = V{};
     for (int i = 0; i < 3; ++i)
       for (int j = i + 1; j < 3; ++j) {
-        const double den = std::max(std::fabs(s[i] + s[j]), kMinStretchSum);
-        top = std::max(top, std::fabs(psi[i] + psi[j]) / den);
+        const V d = 0.5f * (RtF.m[i][j] + RtF.m[j][i]);
+        off += d * d;
       }
-    ratio[t] = top / rest;
+    e2 += 2.0f * off;
+    return e2 <= 0.2499f;
   }
+}
+
+// Ratios of the tets [r.begin, r.end), W at a time: lanes on the fast path give 1, the others
+// the scalar code. out(t, ratio) is called for every tet off the fast path in ascending order,
+// and (when Ones) for the fast ones too.
+template <class T, bool Ones, class Out>
+void corotational_ratios(const ElementContext<T>& c, Range r, const Out& out) {
+  constexpr int W = simd::Pack<T>::W;
+  for (std::size_t t = r.begin; t < r.end; t += W) {
+    const int count = int(std::min<std::size_t>(W, r.end - t));
+    const auto fast = corotational_fast_lanes(c, t, count);
+    if (!Ones && !simd::any(~fast)) continue;  // every lane at ratio 1 (lanes past count repeat the last)
+    for (int l = 0; l < count; ++l) {
+      if (fast[l]) {
+        if constexpr (Ones) out(t + std::size_t(l), 1.0);
+      } else {
+        out(t + std::size_t(l), corotational_ratio(c, t + std::size_t(l)));
+      }
+    }
+  }
+}
+
+}  // namespace
+
+template <class T>
+void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
+  corotational_ratios<T, true>(c, r, [&](std::size_t t, double v) { ratio[t] = v; });
+}
+
+template <class T>
+double element_stiffness_ratio_corotational_max(const ElementContext<T>& c, Range r) {
+  double top = 1;
+  corotational_ratios<T, false>(c, r, [&](std::size_t, double v) { top = std::max(top, v); });
+  return top;
+}
+
+template <class T>
+void element_stiffness_ratio_corotational_scalar(const ElementContext<T>& c, Range r, double* ratio) {
+  for (std::size_t t = r.begin; t < r.end; ++t) ratio[t] = corotational_ratio(c, t);
 }
 
 template <class T>
@@ -152,6 +255,8 @@ void element_stiffness_ratio_springs(const ElementContext<T>& c, Range r, double
 #define PLIANT_INSTANTIATE(T)                                                                      \
   template void element_stiffness_ratio_stvk<T>(const ElementContext<T>&, Range, double*);         \
   template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*); \
+  template double element_stiffness_ratio_corotational_max<T>(const ElementContext<T>&, Range);     \
+  template void element_stiffness_ratio_corotational_scalar<T>(const ElementContext<T>&, Range, double*); \
   template void element_stiffness_ratio_springs<T>(const ElementContext<T>&, Range, double*);
 PLIANT_INSTANTIATE(float)
 PLIANT_INSTANTIATE(double)

@@ -68,18 +68,31 @@ constexpr int kSpinsBeforeYield = 1024;
 // The barrier of run_phases. Not a sense-reversing barrier over a fixed team: TBB does not
 // promise that a parallel_for of `threads` iterations runs them at once (a worker may be asleep,
 // or busy in another arena), and a barrier that waits for a thread that never comes deadlocks.
-// Instead the chunks of all the phases are claimed in order from one counter (`next`) by
-// whichever threads are in the region, and a chunk of phase p waits until the count of ended
-// chunks (`done`) reaches the end of phase p-1. A chunk is run by the thread that claimed it,
-// which waits only for chunks of lower index, so the wait always ends; a thread that arrives late just finds less to do, and
-// one that never arrives leaves all the work to the others. done >= end(p-1) implies that every
-// chunk below end(p-1) ended: chunks of later phases wait for that count before they run, so
-// they cannot be counted before it is reached. The release increments of `done` and the acquire
+// Instead every chunk has a claim flag, and each thread that enters the region (slot s of T, in
+// order of arrival) walks the phases in order: in each it claims first its own block of the
+// phase's chunks (the s-th of T equal blocks), then any chunk of the phase still unclaimed, so
+// that it leaves a phase only when every chunk of it is claimed. A chunk of phase p waits, once
+// claimed, until the count of ended chunks (`done`) reaches the end of phase p-1. Every chunk
+// of an earlier phase was then claimed by a thread that runs it without waiting for anything
+// later, so the wait always ends; a thread that arrives late finds less to do, and one that
+// never arrives leaves all the work to the others. done >= end(p-1) implies that every chunk
+// below end(p-1) ended: chunks of later phases wait for that count before they run, so they
+// cannot be counted before it is reached. The release increments of `done` and the acquire
 // load that sees the end of a phase order every write of that phase before the next one (TSan
 // sees these atomics). Each counter on its own cache line: the claims of one thread do not
 // disturb the other's wait.
+//
+// Why own blocks (chunks were claimed from one shared counter, in order, until 2026-11-25): the
+// passes of a tick hand data on from phase to phase (positions packed by node, corner forces
+// written by tet, gathered by node), and meshes are numbered for locality, so chunk k of one
+// phase mostly reads what chunk k of the phase before wrote; with a shared counter, which thread
+// got chunk k changed from phase to phase and tick to tick. Measured (docs/performance.md, "Small
+// bodies: the deformation monitor and chunk ownership", 2 threads, step p50): the default scene
+// 55.0 -> 50.8 us, multires_organ 34.8 -> 32.2, a 2k-tet box 26.9 -> 25.8, but a 4k-tet box
+// 36.9 -> 39.7 (not understood). The gather still costs each thread about as long as the whole
+// gather on 1 thread. Which thread runs which chunk never changes a result (disjoint outputs).
 struct RegionCounters {
-  alignas(64) std::atomic<std::uint32_t> next{0};
+  alignas(64) std::atomic<std::uint32_t> slots{0};
   alignas(64) std::atomic<std::uint32_t> done{0};
   alignas(64) std::atomic<bool> all{true};
 };
@@ -88,6 +101,9 @@ struct Executor::Arena {
   explicit Arena(int n) : arena(n) {}
   tbb::task_arena arena;
   RegionCounters region;
+  // One claim flag per chunk of the region (run_phases): grows to the largest tick, then stays.
+  std::unique_ptr<std::atomic<std::uint8_t>[]> claimed;
+  std::size_t claimed_capacity = 0;
 };
 
 namespace {
@@ -276,30 +292,43 @@ bool Executor::run_phases(const Phase* phases, std::size_t count) {
   // left the region (after which the counters and the scratch can be reused by the next tick).
   // An iteration that starts after the others took every chunk returns at once.
   RegionCounters& g = arena_->region;
-  g.next.store(0, std::memory_order_relaxed);
+  g.slots.store(0, std::memory_order_relaxed);
   g.done.store(0, std::memory_order_relaxed);
   g.all.store(true, std::memory_order_relaxed);
+  const auto total = std::uint32_t(region_chunks_.size());
+  if (arena_->claimed_capacity < total) {  // grows to the largest tick, then stays
+    arena_->claimed = std::make_unique<std::atomic<std::uint8_t>[]>(total);
+    arena_->claimed_capacity = total;
+  }
+  std::atomic<std::uint8_t>* claimed = arena_->claimed.get();
+  for (std::uint32_t i = 0; i < total; ++i) claimed[i].store(0, std::memory_order_relaxed);
   const RegionChunk* chunks = region_chunks_.data();
   const std::uint32_t* ends = phase_end_.data();
   const std::size_t phase_count = phase_end_.size();
-  const auto total = std::uint32_t(region_chunks_.size());
-  // What every thread of the region runs (the caller's included): claim the next chunk, wait
-  // for the phase before it to end, run it, count it.
+  const auto team = std::uint32_t(threads_);
+  // What every thread of the region runs (the caller's included): phase by phase, its own block
+  // of chunks, then what is left of the phase (see RegionCounters).
   const auto work_region = [&] {
-    std::size_t p = 0;  // phase of the chunk claimed: a thread's claims only grow, so p does too
+    const std::uint32_t slot = std::min(g.slots.fetch_add(1, std::memory_order_relaxed), team - 1);
     bool all = true;
-    for (;;) {
-      const std::uint32_t i = g.next.fetch_add(1, std::memory_order_relaxed);
-      if (i >= total) break;
-      while (p < phase_count && i >= ends[p]) ++p;
-      if (p > 0) wait_until(g.done, ends[p - 1]);
-      const RegionChunk& c = chunks[i];
-      if (c.pred) {
-        all &= c.pred(c.ctx, c.range);
-      } else {
-        c.fn(c.ctx, c.range);
-      }
-      g.done.fetch_add(1, std::memory_order_release);
+    for (std::size_t p = 0; p < phase_count; ++p) {
+      const std::uint32_t b = p > 0 ? ends[p - 1] : 0, e = ends[p], n = e - b;
+      const std::uint32_t own_b = b + std::uint32_t(std::uint64_t(n) * slot / team);
+      const std::uint32_t own_e = b + std::uint32_t(std::uint64_t(n) * (slot + 1) / team);
+      const auto run = [&](std::uint32_t i) {
+        if (claimed[i].load(std::memory_order_relaxed) || claimed[i].exchange(1, std::memory_order_relaxed)) return;
+        if (p > 0) wait_until(g.done, b);
+        const RegionChunk& c = chunks[i];
+        if (c.pred) {
+          all &= c.pred(c.ctx, c.range);
+        } else {
+          c.fn(c.ctx, c.range);
+        }
+        g.done.fetch_add(1, std::memory_order_release);
+      };
+      for (std::uint32_t i = own_b; i < own_e; ++i) run(i);
+      for (std::uint32_t i = own_e; i < e; ++i) run(i);
+      for (std::uint32_t i = b; i < own_b; ++i) run(i);
     }
     if (!all) g.all.store(false, std::memory_order_relaxed);
   };

@@ -20,9 +20,9 @@ inline constexpr std::size_t kSerialBelow = 2048;
 inline std::size_t pass_grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
 
 // The passes of a tick run as phases of one parallel region (Executor::run_phases, from
-// Executor::kRegionSerialBelow items on), whose threads claim chunks one at a time. One chunk
-// per thread and pass (about n / threads items), but none under kTickTetChunk tets or
-// kTickNodeChunk nodes. Measured on a 2-vCPU Xeon (AVX-512), corotational float, 2 threads, idle
+// Executor::kRegionSerialBelow items on), whose threads take chunks one at a time, their own
+// block of each phase first. One chunk per thread and pass (about n / threads items), but none
+// under kTickTetChunk tets or kTickNodeChunk nodes. Measured on a 2-vCPU Xeon (AVX-512), corotational float, 2 threads, idle
 // host, p50 per step: 4 chunks per thread capped at the loop grain were slower than the old
 // per-pass fork-joins (default scene 71-90 us against 64-65, 10k box 135 against 112), 1 per
 // thread faster (59-62 us; 10k box 106-110); docs/performance.md "Small bodies". Chunks are

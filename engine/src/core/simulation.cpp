@@ -701,21 +701,43 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
   for (const SimBody<T>& body : bodies)
     for (const Level<T>& L : body.levels) {
       if (L.model == ForceModel::linear) continue;
-      grow_scratch(L.tet_count);
-      const ElementContext<T> ec = element_context(L);
+      ElementContext<T> ec = element_context(L);
+      if (L.model == ForceModel::corotational && pack_pays(L, L.stepped_count)) {
+        // The corotational lanes load corners from the interleaved copy, as the force pass does
+        // (4 loads and a transpose per corner instead of 3 gathers): packed here from x, the
+        // positions measured. The next tick packs x again before its element pass, so writing
+        // the level's step-private copy changes nothing else.
+        Level<T>& mutable_level = const_cast<Level<T>&>(L);
+        const PackContext<T> pc = pack_context(mutable_level);
+        exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { pack_positions(pc, r); });
+        ec.xp = pc.xp;
+      }
+      if (L.model != ForceModel::corotational) grow_scratch(L.tet_count);
       double* out = scratch.data();
       for (const Range& run : L.stepped_runs) {  // the tets the level steps (all, for one level)
-        const auto shifted = [&](Range r) { return Range{run.begin + r.begin, run.begin + r.end}; };
-        if (L.model == ForceModel::stvk)
-          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
-                            [&](Range r) { element_stiffness_ratio_stvk(ec, shifted(r), out); });
-        else if (L.model == ForceModel::springs)
-          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
-                            [&](Range r) { element_stiffness_ratio_springs(ec, shifted(r), out); });
-        else
-          exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
-                            [&](Range r) { element_stiffness_ratio_corotational(ec, shifted(r), out); });
-        for (std::size_t t = run.begin; t < run.end; ++t) ratio = std::max(ratio, scratch[t]);
+        // Chunks of `grain` tets, each reduced to its largest ratio (in parallel), then combined in
+        // chunk order: a max, so the same value for any thread split. Corotational folds the max
+        // into the kernel (no per-tet output: its fast path writes nothing).
+        const std::size_t grain = pass_grain(run.size(), kTetGrain), chunks = (run.size() + grain - 1) / grain;
+        chunk_max.resize(chunks);
+        double* top = chunk_max.data();
+        exec.parallel_for(chunks, 1, [&](Range cr) {
+          for (std::size_t i = cr.begin; i < cr.end; ++i) {
+            const Range r{run.begin + i * grain, run.begin + std::min(run.size(), (i + 1) * grain)};
+            if (L.model == ForceModel::corotational) {
+              top[i] = element_stiffness_ratio_corotational_max(ec, r);
+              continue;
+            }
+            if (L.model == ForceModel::stvk)
+              element_stiffness_ratio_stvk(ec, r, out);
+            else
+              element_stiffness_ratio_springs(ec, r, out);
+            double m = 1;
+            for (std::size_t t = r.begin; t < r.end; ++t) m = std::max(m, out[t]);
+            top[i] = m;
+          }
+        });
+        for (std::size_t i = 0; i < chunks; ++i) ratio = std::max(ratio, top[i]);
       }
     }
   return ratio;

@@ -253,7 +253,7 @@ class Simulation {
   // Largest element stiffness ratio over every stvk, corotational and springs level (1 if none): how far
   // the current deformation has raised the highest frequency squared above the rest state's
   // (kernels element_stiffness.hpp). Deterministic (a max), whatever the thread split.
-  // Allocation-free once `scratch` has been sized (add_body does).
+  // Allocation-free once `scratch` and `chunk_max` have been sized (add_body does).
   double stiffness_ratio(Executor& exec) const;
   // True if some level's model can stiffen beyond its rest state (stvk, corotational, springs).
   bool can_stiffen() const;
@@ -264,6 +264,7 @@ class Simulation {
   void grow_scratch(std::size_t n) const {
     if (scratch.size() < n) scratch.resize(n);
   }
+  mutable std::vector<double> chunk_max;  // stiffness_ratio: the largest ratio of each chunk of tets
 
   void relocate_probes(int body);
 

@@ -451,6 +451,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     }
     s.bodies.push_back(std::move(b));
     s.scratch.reserve(std::max(s.scratch.capacity(), tets));  // reports and the monitor
+    s.chunk_max.reserve(std::max(s.chunk_max.capacity(), tets / kTetGrain + 1));  // the monitor's chunks
     return BodyId(s.bodies.size() - 1);
   });
   try {

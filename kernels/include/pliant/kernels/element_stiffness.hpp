@@ -38,9 +38,20 @@
 //                  cantilever, springs squashed to L / 9, gained 1.5x its energy at the default step.)
 // linear keeps its rest stiffness (it is affine): its ratio is 1 and World does not call it.
 //
-// Scalar code in double, like the energy reports. Corotational uses the rotation the last force
-// pass stored (one step old) as it is: refining it would cost more than the rest of the pass, and
-// a monitor needs no more. Read-only: monitoring never changes the trajectory.
+// Scalar code in double, like the energy reports, except corotational's fast path (below).
+// Corotational uses the rotation the last force pass stored (one step old) as it is: refining it
+// would cost more than the rest of the pass, and a monitor needs no more. Read-only: monitoring
+// never changes the trajectory.
+//
+// Corotational fast path in vector lanes: with eps = |R^T F - I|_F <= 1/2 the ratio is exactly 1
+// (element_stiffness.cpp says why), which is every tet of a body that is not far from rest. The
+// kernel tests that W tets at a time, one per lane (F, R and R^T F with the helpers of the force
+// passes, the same bits as the scalar code; the sum of squares in double in the scalar order, or
+// for float in float against 1/4 less a margin that covers the difference), and runs the scalar
+// code on every lane that does not pass (tests/kernels/test_stiffness_lanes.cpp: the same ratios
+// as the one-tet-at-a-time code). On the default scene this made the monitor
+// cost about a third of a force pass instead of 1.5 (perf, 1 thread; docs/performance.md "Small
+// bodies: the deformation monitor and chunk ownership").
 #pragma once
 #include "pliant/kernels/element_context.hpp"
 #include "pliant/kernels/range.hpp"
@@ -51,9 +62,18 @@ namespace pliant {
 inline constexpr double kMinStretchSum = 1e-3;
 
 // ratio[t] = (largest |eigenvalue| of the Hessian of psi at the tet's current F) / (3 lambda + 2 mu),
-// for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations).
+// for t in the range; 1 at rest. Corotational reads c.rotation (the stored element rotations),
+// and its lanes read the positions from c.xp when it is set (which must then hold x, packed).
 template <class T> void element_stiffness_ratio_stvk(const ElementContext<T>& c, Range tets, double* ratio);
 template <class T> void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range tets, double* ratio);
+// The largest ratio of the range and 1, without writing per-tet ratios (what World's monitor
+// needs): max(1, ratio[t]...) with NaN ratios skipped, as a std::max(top, ratio[t]) loop over
+// element_stiffness_ratio_corotational's output would give. The divergence check reports NaN.
+template <class T> double element_stiffness_ratio_corotational_max(const ElementContext<T>& c, Range tets);
+// The same ratios as element_stiffness_ratio_corotational, one tet at a time in scalar code (no
+// lanes): the reference of the tests.
+template <class T>
+void element_stiffness_ratio_corotational_scalar(const ElementContext<T>& c, Range tets, double* ratio);
 // Springs: the largest 1 + |1 - L / l| over the tet's edges (reads x, X, tet; see above).
 template <class T> void element_stiffness_ratio_springs(const ElementContext<T>& c, Range tets, double* ratio);
 

@@ -59,7 +59,9 @@ class Executor {
   // fork-join per tick instead of one per pass, which is what makes 2 threads pay on small
   // bodies (1k-4k tets, tens of us per tick). Segment i of a phase is cut into chunks of
   // `grain` items as in run_segments; which thread runs which chunk does not matter (disjoint
-  // outputs), so results are the same bits for any thread count. Returns the AND of every
+  // outputs), so results are the same bits for any thread count; each thread takes its own
+  // block of every phase first (the s-th of T), so that chunk k of one phase and chunk k of the
+  // next, which mostly share data, run on the same core. Returns the AND of every
   // predicate chunk (true if there is none). No allocation once the scratch has grown to the
   // largest tick, no lock, no throw, no virtual call.
   struct Phase {
