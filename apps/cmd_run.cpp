@@ -97,7 +97,7 @@ std::string progress_text(const RunProgress& p) {
 int command_run(const std::string& scene_path, const std::string& out, std::optional<int> threads,
                 const std::string& precision, std::optional<double> duration, bool quiet, bool dry_run, bool repair,
                 double progress_every, const PictureOptions& pic, const std::string& schedule, bool realtime,
-                std::optional<double> realtime_frame) {
+                std::optional<double> realtime_frame, bool realtime_priority) {
   SceneDef scene = load_scene_file(scene_path);
   if (repair)
     for (BodyDef& b : scene.bodies) b.mesh.repair = true;
@@ -109,6 +109,9 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   else if (!precision.empty()) throw InputError(fmt::format("--precision must be float or double, got '{}'", precision));
   opt.duration = duration;
   if (realtime) opt.realtime = true;
+  if (realtime_priority && !realtime && !scene.realtime)
+    throw InputError("--realtime-priority needs a real-time run (--realtime or \"realtime\": true in the scene)");
+  opt.realtime_priority = realtime_priority;
   if (realtime_frame) {
     if (!(*realtime_frame >= 0 && std::isfinite(*realtime_frame)))
       throw InputError(fmt::format("--realtime-frame must be a finite number >= 0 (s), got {}", *realtime_frame));
@@ -287,7 +290,7 @@ Command add_run_command(CLI::App& app) {
     std::string scene, out = "out", precision, schedule;
     std::optional<int> threads;
     std::optional<double> duration, realtime_frame;
-    bool quiet = false, dry_run = false, repair = false, realtime = false;
+    bool quiet = false, dry_run = false, repair = false, realtime = false, realtime_priority = false;
     double progress_every = 5;  // s between progress lines when stderr is not a terminal (a log, a CI job)
     PictureOptions pic;
   };
@@ -307,6 +310,9 @@ Command add_run_command(CLI::App& app) {
   run->add_option("--realtime-frame", o->realtime_frame,
                   "Seconds of simulated time per real-time frame: each frame must be done by the wall-clock time of its "
                   "end (default 0.001, a 1 kHz haptic loop; 0: every step; also \"realtime_frame\" in the scene)");
+  run->add_flag("--realtime-priority", o->realtime_priority,
+                "With --realtime: step on a real-time thread (SCHED_FIFO) so that frames start on time when other processes "
+                "hold the cores (needs root or CAP_SYS_NICE; otherwise the run says so and goes on)");
   run->add_flag("--quiet,-q", o->quiet, "No plan, no progress and no report (warnings and errors still print)");
   run->add_option("--progress-every", o->progress_every,
                   "Seconds between progress lines on stderr when it is not a terminal (on a terminal, one line is rewritten)")
@@ -328,7 +334,7 @@ Command add_run_command(CLI::App& app) {
   return {run, [o] {
             return command_run(o->scene, o->out, o->threads, o->precision, o->duration, o->quiet, o->dry_run, o->repair,
                                o->progress_every, o->pic, o->schedule, o->realtime,
-                               o->realtime_frame);
+                               o->realtime_frame, o->realtime_priority);
           }};
 }
 

@@ -142,6 +142,7 @@ Trace run(const SceneDef& scene, const SceneCase& c, std::optional<bool> realtim
   RunOptions o;
   o.write_files = false;
   o.realtime = realtime;
+  o.realtime_priority = realtime.value_or(false);  // as a real-time host would: frames start on time
   o.frame_every = 1e-3;  // s: probe samples
   int near = -1, far = -1;
   o.on_frame = [&](const World& w) {

@@ -46,6 +46,8 @@ check bad_progress_every 2 "--progress-every must be a finite number > 0" -- "$p
 # Real time in frames: the report counts frames of the given length; a negative frame is refused.
 check realtime_frames 0 "of 10 frames of 1 ms ended after" -- "$pliant" run "$work/slow.json" --out "$work/rt" --duration 0.01 --realtime --realtime-frame 0.001
 check bad_realtime_frame 2 "--realtime-frame must be a finite number >= 0" -- "$pliant" run "$work/slow.json" --out "$work/x" --realtime --realtime-frame -1
+check priority_needs_realtime 2 "--realtime-priority needs a real-time run" -- "$pliant" run "$work/slow.json" --out "$work/x" --realtime-priority
+check priority_said 0 "real-time priority" -- "$pliant" run "$work/slow.json" --out "$work/rtp" --duration 0.01 --realtime --realtime-priority
 
 # A surface in mm without a scale (CGAL builds): the warning comes before meshing starts, so it
 # is seen even when the mesher then refuses the cell size.

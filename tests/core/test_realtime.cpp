@@ -5,6 +5,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <pthread.h>
+#include <sched.h>
+
 #include <cmath>
 #include <functional>
 #include <string>
@@ -118,6 +121,34 @@ TEST(RealTime, AFrameIsDueAtItsEndNotAtEachOfItsSteps) {
   EXPECT_NEAR(framed.frame_mean_us, 1e6 * 7.5 * dt, 1e-6);
   EXPECT_NEAR(framed.frame_p99_us, 1e6 * 7.5 * dt, 0.02 * 1e6 * 7.5 * dt);
   EXPECT_NEAR(framed.frame_max_us, 1e6 * 7.5 * dt, 1e-6);
+}
+
+TEST(RealTime, ARealTimeThreadIsAskedForAndGivenBack) {
+  // RunOptions::realtime_priority: the run says whether it got SCHED_FIFO (root, CAP_SYS_NICE or an
+  // rtprio limit) and the calling thread's scheduling is as before once the run ends, either way.
+  int policy_before = 0;
+  sched_param before{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &policy_before, &before), 0);
+  const SceneDef scene = beam();
+  RunOptions o;
+  o.write_files = false;
+  o.realtime = true;
+  o.realtime_priority = true;
+  World w = make_world(scene, o);
+  double slept = 0;
+  o.wall_clock = [&] { return double(w.steps()) * 0.5 * w.dt() + slept; };
+  o.sleep_until = [&](double t) { slept += std::max(0.0, t - (double(w.steps()) * 0.5 * w.dt() + slept)); };
+  const RunSummary s = run_world(scene, w, o);
+  bool said = false;
+  for (const std::string& n : s.notes)
+    said |= n.find("stepping on a SCHED_FIFO thread") != std::string::npos || n.find("not granted") != std::string::npos;
+  EXPECT_TRUE(said);
+  int policy_after = 0;
+  sched_param after{};
+  ASSERT_EQ(pthread_getschedparam(pthread_self(), &policy_after, &after), 0);
+  EXPECT_EQ(policy_after, policy_before);
+  EXPECT_EQ(after.sched_priority, before.sched_priority);
+  EXPECT_EQ(s.deadline_misses, 0);  // the fake clock: half a step of work per step
 }
 
 TEST(RealTime, AFreeRunReportsItsFactorWithoutPacing) {

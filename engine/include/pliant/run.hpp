@@ -48,6 +48,10 @@ struct RunOptions {
   // lags the clock (RunSummary reports both). The physics of a step never changes: only when it runs.
   std::optional<bool> realtime;            // override the scene's
   std::optional<double> realtime_frame;    // s, override the scene's frame (SceneDef::realtime_frame; 0: every step)
+  // Real-time runs: step on a real-time thread (SCHED_FIFO, lowest real-time priority) for the run,
+  // so that waits wake up on time when other processes hold the cores. Needs the privilege; without
+  // it the run goes on at normal priority and RunSummary::notes says why.
+  bool realtime_priority = false;
   // The wall clock (s, any origin) and how to wait for it, for real-time runs; empty: the steady
   // clock and std::this_thread::sleep_until. Tests give a simulated clock.
   std::function<double()> wall_clock;

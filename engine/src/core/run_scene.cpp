@@ -12,6 +12,7 @@
 
 #include "pliant/vtu_writer.hpp"
 #include "step_clock.hpp"
+#include "thread_priority.hpp"
 
 namespace pliant {
 namespace fs = std::filesystem;
@@ -359,6 +360,16 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   bool frame_open = false;
   double frame_end = sim0, frame_busy = 0;
   TickStats frame_stats;
+  detail::ThreadPriority priority;  // restored when the run ends
+  if (realtime && options.realtime_priority) {
+    std::string why;
+    if (priority.raise(why)) {
+      s.notes.push_back("real-time priority: stepping on a SCHED_FIFO thread");
+    } else {
+      s.notes.push_back("real-time priority not granted, stepping at normal priority: " + why);
+      if (options.on_warning) options.on_warning(s.notes.back());
+    }
+  }
   // The real-time controller (adaptive bodies only): over windows of kControlWindow simulated
   // seconds, the wall time spent stepping (waits left out) against the window. It moves the adaptive
   // bodies along a ladder of settings, coarse to fine: rung 0 = every body capped at its level 0
