@@ -347,6 +347,13 @@ void realtime() {
                s.tet_updates / s.simulated_time);
   }
   // The numbers that set the limit.
+  // Whether the runs stepped on a real-time thread (RunOptions::realtime_priority): the waits' lateness
+  // depends on it.
+  for (const auto* t : {&a, &f})
+    for (const std::string& n : t->summary.notes)
+      if (n.find("real-time priority") != std::string::npos)
+        fmt::print("\n{} run: {}.", t == &a ? "Adaptive" : "Uniform finest", n);
+  fmt::print("\n");
   fmt::print("\nThe hierarchy (from the adaptive run):\n\n");
   fmt::print("| level | tets | stable step (us) | period (ticks) | step (us) | stepped tets, mean (adaptive) | tet updates / s if it were all this level |\n|---|---|---|---|---|---|---|\n");
   const RunSummary& s = a.summary;
