@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "../support/element_arrays.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/node_passes.hpp"
 // White box: the scalar rotation iteration and its batched twin (kernels/src/, private).
@@ -28,11 +29,11 @@ enum class Model { linear, stvk, corotational, springs };
 // that the rotation iteration takes different numbers of steps in different lanes), and
 // velocities are random (damping terms).
 template <class T>
-struct Strip {
+struct Strip : test::ElementArrays<T> {
+  using test::ElementArrays<T>::X, test::ElementArrays<T>::x, test::ElementArrays<T>::v, test::ElementArrays<T>::volume,
+      test::ElementArrays<T>::grad, test::ElementArrays<T>::rot, test::ElementArrays<T>::cf, test::ElementArrays<T>::tet,
+      test::ElementArrays<T>::c;
   std::size_t nt, nn;
-  std::vector<T> X[3], x[3], v[3], volume, grad[9], rot[4], cf[12];
-  std::vector<std::int32_t> tet[4];
-  ElementContext<T> c;
 
   Strip(std::size_t tets, unsigned seed) : nt(tets), nn(tets + 3) {
     std::mt19937 rng(seed);
@@ -59,11 +60,7 @@ struct Strip {
       x[2][i] = T(P[3 * i + 2] + d * 0.1 * u(rng));
       for (int k = 0; k < 3; ++k) v[k][i] = T(0.5 * u(rng));
     }
-    for (auto& a : tet) a.resize(nt);
-    volume.resize(nt);
-    for (auto& g : grad) g.resize(nt);
-    for (auto& q : rot) q.resize(nt);
-    for (auto& f : cf) f.assign(nt, T(0));
+    this->size_tets(nt);
     for (std::size_t t = 0; t < nt; ++t) {
       std::int32_t n[4] = {std::int32_t(t), std::int32_t(t + 1), std::int32_t(t + 2), std::int32_t(t + 3)};
       double p[4][3];
@@ -90,20 +87,7 @@ struct Strip {
       }
       for (int k = 0; k < 4; ++k) rot[k][t] = T(q[k]);
     }
-    for (int k = 0; k < 3; ++k) {
-      c.X[k] = X[k].data();
-      c.x[k] = x[k].data();
-      c.v[k] = v[k].data();
-    }
-    for (int a = 0; a < 4; ++a) c.tet[a] = tet[a].data();
-    c.volume = volume.data();
-    for (int q = 0; q < 9; ++q) c.grad[q] = grad[q].data();
-    for (int k = 0; k < 4; ++k) c.rotation[k] = rot[k].data();
-    for (int q = 0; q < 12; ++q) c.corner_force[q] = cf[q].data();
-    const double E = 1e6, nu = 0.3;
-    c.lambda = T(E * nu / ((1 + nu) * (1 - 2 * nu)));
-    c.mu = T(E / (2 * (1 + nu)));
-    c.young = T(E);
+    this->wire();
   }
 
   // The interleaved copy of x (ElementContext::xp) the step's pack writes; the passes read it.

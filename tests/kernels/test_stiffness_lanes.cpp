@@ -16,6 +16,7 @@
 #include <random>
 #include <vector>
 
+#include "../support/element_arrays.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/element_stiffness.hpp"
 #include "pliant/kernels/node_passes.hpp"
@@ -27,11 +28,11 @@ namespace {
 // t % 8) of its random rest shape, plus a translation. Its stored rotation is Q's quaternion,
 // perturbed (a step-old rotation), or random for every fifth tet.
 template <class T>
-struct Tets {
+struct Tets : test::ElementArrays<T> {
+  using test::ElementArrays<T>::X, test::ElementArrays<T>::x, test::ElementArrays<T>::v, test::ElementArrays<T>::volume,
+      test::ElementArrays<T>::grad, test::ElementArrays<T>::rot, test::ElementArrays<T>::cf, test::ElementArrays<T>::tet,
+      test::ElementArrays<T>::c;
   std::size_t nt;
-  std::vector<T> X[3], x[3], v[3], volume, grad[9], rot[4], cf[12];
-  std::vector<std::int32_t> tet[4];
-  ElementContext<T> c;
 
   explicit Tets(std::size_t n, unsigned seed) : nt(n) {
     std::mt19937 rng(seed);
@@ -42,11 +43,7 @@ struct Tets {
       x[k].resize(nn);
       v[k].assign(nn, T(0));
     }
-    for (auto& a : tet) a.resize(nt);
-    volume.resize(nt);
-    for (auto& g : grad) g.resize(nt);
-    for (auto& q : rot) q.resize(nt);
-    for (auto& f : cf) f.assign(nt, T(0));
+    this->size_tets(nt);
     for (std::size_t t = 0; t < nt; ++t) {
       double p[4][3];
       for (int k = 0; k < 3; ++k) p[0][k] = 0.1 * u(rng);
@@ -102,20 +99,7 @@ struct Tets {
       }
       for (int k = 0; k < 4; ++k) rot[k][t] = T(r[k] / std::sqrt(nr));
     }
-    for (int k = 0; k < 3; ++k) {
-      c.X[k] = X[k].data();
-      c.x[k] = x[k].data();
-      c.v[k] = v[k].data();
-    }
-    for (int a = 0; a < 4; ++a) c.tet[a] = tet[a].data();
-    c.volume = volume.data();
-    for (int q = 0; q < 9; ++q) c.grad[q] = grad[q].data();
-    for (int k = 0; k < 4; ++k) c.rotation[k] = rot[k].data();
-    for (int q = 0; q < 12; ++q) c.corner_force[q] = cf[q].data();
-    const double E = 1e6, nu = 0.3;
-    c.lambda = T(E * nu / ((1 + nu) * (1 - 2 * nu)));
-    c.mu = T(E / (2 * (1 + nu)));
-    c.young = T(E);
+    this->wire();
   }
 };
 

@@ -1,0 +1,45 @@
+// The per-node and per-tet arrays of a kernel test's tets, and an ElementContext pointing at them
+// with a rubber-like material (E = 1 MPa, nu = 0.3): what the kernel fixtures (test_kernel_batches,
+// test_stiffness_lanes) fill in their own ways and then wire alike.
+#pragma once
+#include <cstdint>
+#include <vector>
+
+#include "pliant/kernels/element_context.hpp"
+
+namespace pliant::test {
+
+template <class T>
+struct ElementArrays {
+  std::vector<T> X[3], x[3], v[3], volume, grad[9], rot[4], cf[12];
+  std::vector<std::int32_t> tet[4];
+  ElementContext<T> c;
+
+  // Sizes the per-tet arrays for n tets (corner forces zeroed).
+  void size_tets(std::size_t n) {
+    for (auto& a : tet) a.resize(n);
+    volume.resize(n);
+    for (auto& g : grad) g.resize(n);
+    for (auto& q : rot) q.resize(n);
+    for (auto& f : cf) f.assign(n, T(0));
+  }
+  // Points c at the arrays (call once they are sized: a later resize moves them) and sets the material.
+  void wire() {
+    for (int k = 0; k < 3; ++k) {
+      c.X[k] = X[k].data();
+      c.x[k] = x[k].data();
+      c.v[k] = v[k].data();
+    }
+    for (int a = 0; a < 4; ++a) c.tet[a] = tet[a].data();
+    c.volume = volume.data();
+    for (int q = 0; q < 9; ++q) c.grad[q] = grad[q].data();
+    for (int k = 0; k < 4; ++k) c.rotation[k] = rot[k].data();
+    for (int q = 0; q < 12; ++q) c.corner_force[q] = cf[q].data();
+    const double E = 1e6, nu = 0.3;
+    c.lambda = T(E * nu / ((1 + nu) * (1 - 2 * nu)));
+    c.mu = T(E / (2 * (1 + nu)));
+    c.young = T(E);
+  }
+};
+
+}  // namespace pliant::test
