@@ -138,7 +138,6 @@ double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
 template <class T>
 typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, std::size_t t, int count) {
   using V = typename simd::Pack<T>::V;
-  using M = typename simd::Pack<T>::M;
   constexpr int W = simd::Pack<T>::W;
   detail::TetBatch<T> e;
   for (int a = 0; a < 4; ++a) {

@@ -152,7 +152,9 @@ TEST(RunPlan, ProgressCountsSubStepsAndStartsWithTheEstimate) {
     EXPECT_EQ(p.steps, r.steps);
     EXPECT_LT(p.step, p.steps);
     EXPECT_GT(p.eta_s, 0);
-    if (i > 0) EXPECT_GT(p.step, reports[i - 1].step);
+    if (i > 0) {
+      EXPECT_GT(p.step, reports[i - 1].step);
+    }
   }
 }
 
