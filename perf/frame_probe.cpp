@@ -124,11 +124,12 @@ int main(int argc, char** argv) {
     for (std::size_t b = 0; b < w.body_count(); ++b)
       for (int l = 0; l < w.level_count(BodyId(b)); ++l) {
         const LevelInfo li = w.level_info(BodyId(b), l);
-        // Runs of consecutive stepped tets: the element kernels fill their vector lanes within a run.
+        // Runs of consecutive stepped tets: by runs, the element kernels fill their vector lanes
+        // within a run; a level of short runs is stepped from a list instead (LevelInfo::listed).
         const std::size_t runs = w.precision() == Precision::float32 ? w.level<float>(BodyId(b), l).stepped_runs.size()
                                                                      : w.level<double>(BodyId(b), l).stepped_runs.size();
-        fmt::print("body {} level {}: {} tets, {} stepped at the end in {} runs, period {}\n", b, l, li.tets, li.stepped_tets,
-                   runs, li.period);
+        fmt::print("body {} level {}: {} tets, {} stepped at the end in {} runs ({}), period {}\n", b, l, li.tets,
+                   li.stepped_tets, runs, li.listed ? "from a list" : "by runs", li.period);
       }
     return 0;
   } catch (const std::exception& e) {

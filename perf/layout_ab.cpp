@@ -70,7 +70,7 @@ void corotational_slots(const ElementContext<float>& c, const std::int32_t* cons
   for (std::size_t t = r.begin; t < r.end; t += W) {
     const int count = int(std::min<std::size_t>(W, r.end - t));
     detail::TetBatch<float> e;
-    detail::load_batch(c, t, count, e);
+    detail::load_batch(c, detail::ConsecutiveTets<float>{t, count}, e);
     const Mat3<V> F[1] = {detail::corner_gradient(e.x, e.g)};
     V q[1][4];
     for (int k = 0; k < 4; ++k) q[0][k] = simd::load(c.rotation[k] + t, count);

@@ -1,11 +1,9 @@
-// The per-tet force and energy kernels of every force model (see element_forces.hpp).
-// The force passes run a vector register's worth of tets at a time (16 floats or 8 doubles with
-// AVX-512, 8/4 with AVX2, 4/2 with SSE2), one tet per lane, with the arithmetic of the scalar
-// helpers of tet_local.hpp: the same bits as one tet at a time, on any ISA and range split
-// (tests/kernels/test_kernel_batches.cpp). The energy and stress reports stay scalar. Branch-free
-// per batch except the corotational rotation refinement (until every lane has converged);
-// damping terms are compiled in only when a viscous coefficient is non-zero (template flag), so
-// undamped runs do not read velocities.
+// The per-tet force and energy kernels of every force model (see element_forces.hpp): the force
+// passes over ranges of tets (their batch functions are in element_batches.hpp, shared with the
+// passes over lists, element_forces_listed.cpp), and the energy and stress reports, which stay
+// scalar. The force passes run a vector register's worth of tets at a time (16 floats or 8 doubles
+// with AVX-512, 8/4 with AVX2, 4/2 with SSE2), one tet per lane: the same bits as one tet at a
+// time, on any ISA and range split (tests/kernels/test_kernel_batches.cpp).
 #include "pliant/kernels/element_forces.hpp"
 
 #include <algorithm>
@@ -13,72 +11,15 @@
 #include <cstring>
 #include <type_traits>
 
-#include "tet_batch.hpp"
+#include "element_batches.hpp"
 #include "tet_local.hpp"
 
 namespace pliant {
 using detail::Mat3;
-using detail::TetBatch;
 using detail::TetLocal;
 
 namespace {
 
-template <class T>
-bool has_viscosity(const ElementContext<T>& c) {
-  return c.bulk_viscosity != T(0) || c.shear_viscosity != T(0);
-}
-
-// ---- linear (Cauchy) ------------------------------------------------------------------------
-// The force passes run W tets at a time, one per vector lane (tet_batch.hpp); each lane does
-// the arithmetic of the scalar helpers of tet_local.hpp, so results are the same bits as a
-// one-tet-at-a-time loop, whatever the range boundaries.
-template <class T, bool Damped>
-void linear_pass(const ElementContext<T>& c, Range r) {
-  using V = typename simd::Pack<T>::V;
-  constexpr int W = simd::Pack<T>::W;
-  for (std::size_t t = r.begin; t < r.end; t += W) {
-    const int count = int(std::min<std::size_t>(W, r.end - t));
-    TetBatch<T> e;
-    detail::load_batch(c, t, count, e);
-    Mat3<V> eps = detail::sym(detail::corner_gradient(e.x, e.g));
-    for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
-    Mat3<V> P = detail::hooke(eps, c.lambda, c.mu);
-    if constexpr (Damped) {
-      V v[4][3];
-      detail::gather_corners(c.v, e, v);
-      detail::add_to(P, detail::hooke(detail::sym(detail::corner_gradient(v, e.g)), c.bulk_viscosity,
-                                      c.shear_viscosity));
-    }
-    detail::store_corner_forces_batch(c, t, count, P, e.g, e.volume);
-  }
-}
-
-// ---- St Venant–Kirchhoff (Green–Lagrange) ---------------------------------------------------
-template <class T, bool Damped>
-void stvk_pass(const ElementContext<T>& c, Range r) {
-  using V = typename simd::Pack<T>::V;
-  constexpr int W = simd::Pack<T>::W;
-  for (std::size_t t = r.begin; t < r.end; t += W) {
-    const int count = int(std::min<std::size_t>(W, r.end - t));
-    TetBatch<T> e;
-    detail::load_batch(c, t, count, e);
-    const Mat3<V> F = detail::corner_gradient(e.x, e.g);
-    Mat3<V> E = detail::sym(detail::mul_tn(F, F));
-    for (int i = 0; i < 3; ++i) E.m[i][i] -= T(1);
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) E.m[i][j] *= T(0.5);
-    Mat3<V> S = detail::hooke(E, c.lambda, c.mu);
-    if constexpr (Damped) {
-      V v[4][3];
-      detail::gather_corners(c.v, e, v);
-      const Mat3<V> Fdot = detail::corner_gradient(v, e.g);
-      detail::add_to(S, detail::hooke(detail::sym(detail::mul_tn(F, Fdot)), c.bulk_viscosity, c.shear_viscosity));
-    }
-    detail::store_corner_forces_batch(c, t, count, detail::mul(F, S), e.g, e.volume);
-  }
-}
-
-// ---- corotational ---------------------------------------------------------------------------
 // Corotated strain R^T F - I. Only the force pass stores the refined rotation (keep = true):
 // energy and stress reports work on a copy, so measuring never changes the trajectory.
 template <class T>
@@ -92,85 +33,9 @@ Mat3<T> corotational_strain(const ElementContext<T>& c, std::size_t t, const Mat
   return eps;
 }
 
-template <class T, bool Damped>
-void corotational_pass(const ElementContext<T>& c, Range r) {
-  using V = typename simd::Pack<T>::V;
-  constexpr int W = simd::Pack<T>::W;
-  for (std::size_t t = r.begin; t < r.end; t += W) {
-    const int count = int(std::min<std::size_t>(W, r.end - t));
-    TetBatch<T> e;
-    detail::load_batch(c, t, count, e);
-    const Mat3<V> F[1] = {detail::corner_gradient(e.x, e.g)};
-    V q[1][4];
-    for (int k = 0; k < 4; ++k) q[0][k] = simd::load(c.rotation[k] + t, count);
-    Mat3<V> R[1];
-    detail::extract_rotation_batches<T, 1>(F, q, R);
-    for (int k = 0; k < 4; ++k) simd::store(c.rotation[k] + t, count, q[0][k]);
-    Mat3<V> eps = detail::sym(detail::mul_tn(R[0], F[0]));
-    for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
-    Mat3<V> sigma = detail::hooke(eps, c.lambda, c.mu);
-    if constexpr (Damped) {
-      V v[4][3];
-      detail::gather_corners(c.v, e, v);
-      const Mat3<V> Fdot = detail::corner_gradient(v, e.g);
-      detail::add_to(sigma,
-                     detail::hooke(detail::sym(detail::mul_tn(R[0], Fdot)), c.bulk_viscosity, c.shear_viscosity));
-    }
-    detail::store_corner_forces_batch(c, t, count, detail::mul(R[0], sigma), e.g, e.volume);
-  }
-}
-
-// ---- springs --------------------------------------------------------------------------------
-constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
-
-template <class T, bool Damped>
-void springs_pass(const ElementContext<T>& c, Range r) {
-  using V = typename simd::Pack<T>::V;
-  constexpr int W = simd::Pack<T>::W;
-  for (std::size_t t = r.begin; t < r.end; t += W) {
-    const int count = int(std::min<std::size_t>(W, r.end - t));
-    TetBatch<T> e;
-    for (int a = 0; a < 4; ++a) {
-      if (count == W) {
-        std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
-      } else {
-        for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
-      }
-    }
-    V X[4][3], v[4][3];
-    detail::load_positions(c, e);
-    auto& x = e.x;
-    detail::gather_corners(c.X, e, X);
-    if constexpr (Damped) detail::gather_corners(c.v, e, v);
-    const V volume = simd::load(c.volume + t, count);
-    V f[4][3] = {};
-    for (const auto& edge : kEdges) {
-      const int a = edge[0], b = edge[1];
-      V d[3], D[3];
-      for (int k = 0; k < 3; ++k) {
-        d[k] = x[b][k] - x[a][k];
-        D[k] = X[b][k] - X[a][k];
-      }
-      const V L2 = D[0] * D[0] + D[1] * D[1] + D[2] * D[2];
-      const V L = simd::sqrt(L2);
-      const V l = simd::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-      const V k_spring = c.young * volume / L2;  // N/m
-      const V inv_l = l > T(0) ? T(1) / l : V{};
-      V s = k_spring * (l - L);  // tension (N)
-      if constexpr (Damped) {
-        V rel = V{};
-        for (int k = 0; k < 3; ++k) rel += (v[b][k] - v[a][k]) * d[k];
-        s += c.spring_damping * k_spring * rel * inv_l;
-      }
-      for (int k = 0; k < 3; ++k) {
-        const V fk = s * d[k] * inv_l;
-        f[a][k] += fk;
-        f[b][k] -= fk;
-      }
-    }
-    for (int a = 0; a < 4; ++a)
-      for (int k = 0; k < 3; ++k) simd::store(c.corner_force[3 * a + k] + t, count, f[a][k]);
-  }
+template <class Model, class T>
+void forces(const ElementContext<T>& c, Range r, bool damped) {
+  damped ? detail::range_pass<Model, T, true>(c, r) : detail::range_pass<Model, T, false>(c, r);
 }
 
 }  // namespace
@@ -182,19 +47,19 @@ bool packed_corners_pay() {
 
 template <class T>
 void element_forces_linear(const ElementContext<T>& c, Range r) {
-  has_viscosity(c) ? linear_pass<T, true>(c, r) : linear_pass<T, false>(c, r);
+  forces<detail::Linear>(c, r, detail::has_viscosity(c));
 }
 template <class T>
 void element_forces_stvk(const ElementContext<T>& c, Range r) {
-  has_viscosity(c) ? stvk_pass<T, true>(c, r) : stvk_pass<T, false>(c, r);
+  forces<detail::Stvk>(c, r, detail::has_viscosity(c));
 }
 template <class T>
 void element_forces_corotational(const ElementContext<T>& c, Range r) {
-  has_viscosity(c) ? corotational_pass<T, true>(c, r) : corotational_pass<T, false>(c, r);
+  forces<detail::Corotational>(c, r, detail::has_viscosity(c));
 }
 template <class T>
 void element_forces_springs(const ElementContext<T>& c, Range r) {
-  c.spring_damping != T(0) ? springs_pass<T, true>(c, r) : springs_pass<T, false>(c, r);
+  forces<detail::Springs>(c, r, c.spring_damping != T(0));
 }
 
 // ---- energies -------------------------------------------------------------------------------
@@ -245,7 +110,7 @@ template <class T>
 void element_energy_springs(const ElementContext<T>& c, Range r, double* energy) {
   for (std::size_t t = r.begin; t < r.end; ++t) {
     double sum = 0;
-    for (const auto& edge : kEdges) {
+    for (const auto& edge : detail::kEdges) {
       const std::int32_t a = c.tet[edge[0]][t], b = c.tet[edge[1]][t];
       double l2 = 0, L2 = 0;
       for (int k = 0; k < 3; ++k) {

@@ -135,26 +135,19 @@ double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
 // float lanes with a margin (below). Returns lanes whose ratio is exactly 1 by the scalar test
 // (NaN fails, as there); the others run the scalar code. Lanes past `count` repeat the last tet.
 // (Float lanes with the double test, converted, made the monitor twice as slow.)
-template <class T>
-typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, std::size_t t, int count) {
+template <class T, class At>
+typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
-  constexpr int W = simd::Pack<T>::W;
   detail::TetBatch<T> e;
-  for (int a = 0; a < 4; ++a) {
-    if (count == W) {
-      std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
-    } else {
-      for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
-    }
-  }
+  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
   // Positions: from the interleaved copy when the context has one (the caller packed it from x
   // just before: the same values the scalar code reads from x), else gathered from x[3][n].
   detail::load_positions(c, e);
   for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
+    for (int k = 0; k < 3; ++k) e.g[a][k] = at.load(c.grad[3 * a + k]);
   const Mat3<V> F = detail::corner_gradient(e.x, e.g);
   V q[4];
-  for (int k = 0; k < 4; ++k) q[k] = simd::load(c.rotation[k] + t, count);
+  for (int k = 0; k < 4; ++k) q[k] = at.load(c.rotation[k]);
   const Mat3<V> RtF = detail::mul_tn(detail::quat_to_matrix(q), F);
   if constexpr (std::is_same_v<T, double>) {
     // The scalar test itself (sym_to_double, then - I, squares summed in the same order).
@@ -190,21 +183,24 @@ typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, st
   }
 }
 
-// Ratios of the tets [r.begin, r.end), W at a time: lanes on the fast path give 1, the others
-// the scalar code. out(t, ratio) is called for every tet off the fast path in ascending order,
-// and (when Ones) for the fast ones too.
+// Ratios of the tets [r.begin, r.end), or of the listed tets ids[r.begin..r.end) when ids is not
+// null, W at a time: lanes on the fast path give 1, the others the scalar code. out(t, ratio) is
+// called for every tet off the fast path in list (or ascending) order, and (when Ones) for the
+// fast ones too.
 template <class T, bool Ones, class Out>
-void corotational_ratios(const ElementContext<T>& c, Range r, const Out& out) {
+void corotational_ratios(const ElementContext<T>& c, const std::int32_t* ids, Range r, const Out& out) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W) {
     const int count = int(std::min<std::size_t>(W, r.end - t));
-    const auto fast = corotational_fast_lanes(c, t, count);
+    const auto fast = ids ? corotational_fast_lanes(c, detail::ListedTets<T>(ids + t, count))
+                          : corotational_fast_lanes(c, detail::ConsecutiveTets<T>{t, count});
     if (!Ones && !simd::any(~fast)) continue;  // every lane at ratio 1 (lanes past count repeat the last)
     for (int l = 0; l < count; ++l) {
+      const std::size_t tet = ids ? std::size_t(ids[t + std::size_t(l)]) : t + std::size_t(l);
       if (fast[l]) {
-        if constexpr (Ones) out(t + std::size_t(l), 1.0);
+        if constexpr (Ones) out(tet, 1.0);
       } else {
-        out(t + std::size_t(l), corotational_ratio(c, t + std::size_t(l)));
+        out(tet, corotational_ratio(c, tet));
       }
     }
   }
@@ -214,13 +210,20 @@ void corotational_ratios(const ElementContext<T>& c, Range r, const Out& out) {
 
 template <class T>
 void element_stiffness_ratio_corotational(const ElementContext<T>& c, Range r, double* ratio) {
-  corotational_ratios<T, true>(c, r, [&](std::size_t t, double v) { ratio[t] = v; });
+  corotational_ratios<T, true>(c, nullptr, r, [&](std::size_t t, double v) { ratio[t] = v; });
 }
 
 template <class T>
 double element_stiffness_ratio_corotational_max(const ElementContext<T>& c, Range r) {
   double top = 1;
-  corotational_ratios<T, false>(c, r, [&](std::size_t, double v) { top = std::max(top, v); });
+  corotational_ratios<T, false>(c, nullptr, r, [&](std::size_t, double v) { top = std::max(top, v); });
+  return top;
+}
+
+template <class T>
+double element_stiffness_ratio_corotational_max_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r) {
+  double top = 1;
+  corotational_ratios<T, false>(c, tets, r, [&](std::size_t, double v) { top = std::max(top, v); });
   return top;
 }
 
@@ -255,6 +258,7 @@ void element_stiffness_ratio_springs(const ElementContext<T>& c, Range r, double
   template void element_stiffness_ratio_stvk<T>(const ElementContext<T>&, Range, double*);         \
   template void element_stiffness_ratio_corotational<T>(const ElementContext<T>&, Range, double*); \
   template double element_stiffness_ratio_corotational_max<T>(const ElementContext<T>&, Range);     \
+  template double element_stiffness_ratio_corotational_max_listed<T>(const ElementContext<T>&, const std::int32_t*, Range); \
   template void element_stiffness_ratio_corotational_scalar<T>(const ElementContext<T>&, Range, double*); \
   template void element_stiffness_ratio_springs<T>(const ElementContext<T>&, Range, double*);
 PLIANT_INSTANTIATE(float)

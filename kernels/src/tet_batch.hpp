@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "pliant/kernels/range.hpp"
 #include "simd.hpp"
 #include "tet_local.hpp"
 
@@ -35,21 +36,56 @@ inline void load_positions(const ElementContext<T>& c, TetBatch<T>& e) {
   }
 }
 
-// Loads tets [t, t + count), count <= W, corner indices, positions, gradients and volumes.
+// Which tets the lanes of a batch hold, and how their per-tet values are read and written.
+// Lanes past `count` repeat the last tet on load and are not stored (simd::load / simd::store).
+//   ConsecutiveTets: tets [first, first + count) — contiguous loads and stores.
+//   ListedTets: the tets id[0..count) of a list (a multiresolution level's stepped tets, which lie
+//     scattered over its mesh): gathers and one store per lane, so that a batch is full however
+//     short the runs of stepped tets are. A list must not repeat a tet (stores would race).
+// Each lane does the same arithmetic either way: the same bits (tests/kernels/test_kernel_batches.cpp).
 template <class T>
-inline void load_batch(const ElementContext<T>& c, std::size_t t, int count, TetBatch<T>& e) {
-  constexpr int W = TetBatch<T>::W;
-  for (int a = 0; a < 4; ++a) {
+struct ConsecutiveTets {
+  using V = typename simd::Pack<T>::V;
+  static constexpr int W = simd::Pack<T>::W;
+  std::size_t first;
+  int count;
+  V load(const T* p) const { return simd::load(p + first, count); }
+  void store(T* p, const V& v) const { simd::store(p + first, count, v); }
+  void indices(const std::int32_t* p, std::int32_t out[W]) const {
     if (count == W) {
-      std::memcpy(e.n[a], c.tet[a] + t, sizeof(e.n[a]));
+      std::memcpy(out, p + first, sizeof(std::int32_t) * W);
     } else {
-      for (int l = 0; l < W; ++l) e.n[a][l] = c.tet[a][t + std::size_t(std::min(l, count - 1))];
+      for (int l = 0; l < W; ++l) out[l] = p[first + std::size_t(std::min(l, count - 1))];
     }
   }
+};
+
+template <class T>
+struct ListedTets {
+  using V = typename simd::Pack<T>::V;
+  static constexpr int W = simd::Pack<T>::W;
+  std::int32_t id[W];
+  int count;
+  ListedTets(const std::int32_t* ids, int n) : count(n) {
+    for (int l = 0; l < W; ++l) id[l] = ids[std::min(l, n - 1)];
+  }
+  V load(const T* p) const { return simd::gather(p, id); }
+  void store(T* p, const V& v) const {
+    for (int l = 0; l < count; ++l) p[id[l]] = v[l];
+  }
+  void indices(const std::int32_t* p, std::int32_t out[W]) const {
+    for (int l = 0; l < W; ++l) out[l] = p[id[l]];
+  }
+};
+
+// Loads the batch's corner indices, positions, gradients and volumes.
+template <class T, class At>
+inline void load_batch(const ElementContext<T>& c, const At& at, TetBatch<T>& e) {
+  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
   load_positions(c, e);
   for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < 3; ++k) e.g[a][k] = simd::load(c.grad[3 * a + k] + t, count);
-  e.volume = simd::load(c.volume + t, count);
+    for (int k = 0; k < 3; ++k) e.g[a][k] = at.load(c.grad[3 * a + k]);
+  e.volume = at.load(c.volume);
 }
 
 template <class T>
@@ -59,8 +95,8 @@ inline void gather_corners(const T* const y[3], const TetBatch<T>& e, typename T
 }
 
 // store_corner_forces of tet_local.hpp, W tets at once.
-template <class T>
-inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t, int count,
+template <class T, class At>
+inline void store_corner_forces_batch(const ElementContext<T>& c, const At& at,
                                       const Mat3<typename TetBatch<T>::V>& P, const typename TetBatch<T>::V g[3][3],
                                       const typename TetBatch<T>::V& volume) {
   using V = typename TetBatch<T>::V;
@@ -68,11 +104,11 @@ inline void store_corner_forces_batch(const ElementContext<T>& c, std::size_t t,
   for (int a = 0; a < 3; ++a) {
     for (int i = 0; i < 3; ++i) {
       const V fi = -volume * dot3(P.m[i][0], g[a][0], P.m[i][1], g[a][1], P.m[i][2], g[a][2]);
-      simd::store(c.corner_force[3 * (a + 1) + i] + t, count, fi);
+      at.store(c.corner_force[3 * (a + 1) + i], fi);
       f0[i] -= fi;
     }
   }
-  for (int i = 0; i < 3; ++i) simd::store(c.corner_force[i] + t, count, f0[i]);
+  for (int i = 0; i < 3; ++i) at.store(c.corner_force[i], f0[i]);
 }
 
 // extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing

@@ -153,6 +153,22 @@ void check_lanes(std::size_t n, unsigned seed, bool poison) {
   }
   EXPECT_TRUE(same_bits(scalar, lanes));
   EXPECT_EQ(element_stiffness_ratio_corotational_max(m.c, Range{0, n}), fold_max(scalar, Range{0, n}));
+  // Over listed tets (a level stepped from a list): every other run of 1-4 tets, shuffled, in
+  // pieces of odd sizes: each piece's max is the fold over the scalar ratios of its tets.
+  std::vector<std::int32_t> ids;
+  for (std::size_t i = 0; i < n; i += 2 + i % 5)
+    for (std::size_t j = i; j < std::min(n, i + 1 + i % 4); ++j) ids.push_back(std::int32_t(j));
+  std::shuffle(ids.begin(), ids.end(), std::mt19937(seed));
+  std::size_t pieces_above = 0;
+  for (std::size_t i = 0, p = 0; i < ids.size(); ++p) {
+    const Range r{i, std::min(ids.size(), i + sizes[p % std::size(sizes)])};
+    double expect = 1;
+    for (std::size_t k = r.begin; k < r.end; ++k) expect = std::max(expect, scalar[std::size_t(ids[k])]);
+    EXPECT_EQ(element_stiffness_ratio_corotational_max_listed(m.c, ids.data(), r), expect) << r.begin << ".." << r.end;
+    pieces_above += expect > 1;
+    i = r.end;
+  }
+  EXPECT_GT(pieces_above, 10u);
   // Corners from the interleaved copy of x (ElementContext::xp, packed as the step packs it), as
   // the monitor reads them where packed corners pay: the same ratios.
   std::vector<T> xp(4 * 4 * n, T(-7));

@@ -443,6 +443,8 @@ TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
               fine.nodes, fine.active_nodes + fine.ghost_nodes, fine.active_nodes, fine.ghost_nodes, fine.pass_nodes,
               coarse.pass_nodes, coarse.nodes);
   ASSERT_GT(fine.stepped_tets, 0u);
+  // Its stepped tets lie in short runs (rows of the slab near the push): a list fills the lanes.
+  EXPECT_TRUE(fine.listed);
   EXPECT_GE(fine.pass_nodes, fine.active_nodes + fine.ghost_nodes);
   EXPECT_LT(fine.pass_nodes, fine.nodes / 2);
   EXPECT_LE(coarse.pass_nodes, coarse.nodes);
@@ -453,17 +455,21 @@ TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
   single.add_body(s);
   single.step();
   EXPECT_EQ(single.level_info(0, 0).pass_nodes, single.level_info(0, 0).nodes);
+  EXPECT_FALSE(single.level_info(0, 0).listed);
 }
 
 std::uint64_t adaptive_hash(int threads) {
   World w(no_gravity(threads));
   w.add_body(block());
   stretch_and_drift(w);
+  bool listed = false;  // a level stepped from a list (kernels: the bits of the range passes)
   for (int i = 0; i < 200; ++i) {
     if (i == 50) w.force_level(0, 1);
     if (i == 120) w.force_level(0, 0);
     w.step();
+    for (int l = 0; l < w.level_count(0); ++l) listed |= w.level_info(0, l).listed;
   }
+  EXPECT_TRUE(listed);
   return w.state_hash();
 }
 

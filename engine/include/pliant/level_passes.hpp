@@ -158,4 +158,18 @@ ElementPass<T> force_kernel(ForceModel m) {
   return &element_forces_linear<T>;
 }
 
+template <class T>
+using ListedElementPass = void (*)(const ElementContext<T>&, const std::int32_t*, Range);
+
+template <class T>
+ListedElementPass<T> listed_force_kernel(ForceModel m) {
+  switch (m) {
+    case ForceModel::linear: return &element_forces_linear_listed<T>;
+    case ForceModel::stvk: return &element_forces_stvk_listed<T>;
+    case ForceModel::corotational: return &element_forces_corotational_listed<T>;
+    case ForceModel::springs: return &element_forces_springs_listed<T>;
+  }
+  return &element_forces_linear_listed<T>;
+}
+
 }  // namespace pliant

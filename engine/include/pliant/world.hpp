@@ -39,6 +39,8 @@ struct LevelInfo {
   std::size_t ghost_nodes = 0;   // nodes that follow coarser levels
   std::size_t pass_nodes = 0;    // nodes its node passes (gather, integration, obstacles) run over:
                                  // those not inactive, and short gaps between them
+  bool listed = false;           // its element pass reads its stepped tets from a list: they lie in
+                                 // short runs (a region of its mesh), and a list fills the vector lanes
   int period = 1;                // fine ticks per step of the level
   double dt = 0;                 // s, its step: period x the tick
   double stable_dt = 0;          // s, its stable bound

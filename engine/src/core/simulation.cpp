@@ -32,6 +32,21 @@ EnergyPass<T> energy_kernel(ForceModel m) {
 
 }  // namespace
 
+// Whether a level steps its tets from a list (LevelJobState::stepped) rather than run by run:
+// when its runs are short. A run of n tets costs ceil(n / W) batches and a task of its own, so
+// runs of about 4 tets (the middle level of the 50k organ stepping the region under its tool: 291
+// tets in 75 runs) filled a quarter of each 16-lane batch; a list fills them all, for gathers and
+// per-lane stores in place of contiguous loads and stores. perf/frame_probe on that organ (2
+// threads, Xeon KVM guest, idle): 1 ms frames took 681-696 us by runs, 427-442 us listed (and
+// 360 us with the deformation monitor listed too). Its coarsest level (667 tets in 16 runs, about
+// 42 per run) took the same time either way, within the noise. kListedRunsBelow: the mean run
+// length (tets) under which a level is listed.
+constexpr std::size_t kListedRunsBelow = 64;
+template <class T>
+bool steps_by_list(const Level<T>& L) {
+  return L.stepped_runs.size() > 1 && L.stepped_count < kListedRunsBelow * L.stepped_runs.size();
+}
+
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   jobs_.clear();
@@ -55,6 +70,13 @@ void Simulation<T>::prepare(double tick_dt) {
       js.pass = force_kernel<T>(L.model);
       js.run_start.assign(1, 0);
       for (const Range& r : L.stepped_runs) js.run_start.push_back(js.run_start.back() + r.size());
+      js.stepped.clear();
+      if (steps_by_list(L)) {
+        js.listed_pass = listed_force_kernel<T>(L.model);
+        js.stepped.reserve(L.stepped_count);
+        for (const Range& r : L.stepped_runs)
+          for (std::size_t t = r.begin; t < r.end; ++t) js.stepped.push_back(std::int32_t(t));
+      }
       pieces += L.stepped_runs.size() + 1;
       js.gc = gather_context(L);
       js.ic = integrate_context(L, gravity, 0.0);
@@ -124,12 +146,24 @@ std::size_t Simulation<T>::pass_nodes(int body, int level) const {
   return n;
 }
 
+template <class T>
+bool Simulation<T>::steps_listed(int body, int level) const {
+  if (job_of_body_.size() <= std::size_t(body)) return false;  // before the first prepare()
+  return !job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)].stepped.empty();
+}
+
 namespace {
 
 template <class T>
 void run_piece(const void* ctx, Range r) {
   const auto& p = *static_cast<const ElementPiece<T>*>(ctx);
   p.job->pass(p.job->ec, Range{p.first_tet + r.begin, p.first_tet + r.end});
+}
+// A piece of a listed level: r counts from the piece's first position in the level's list.
+template <class T>
+void run_listed_piece(const void* ctx, Range r) {
+  const auto& p = *static_cast<const ElementPiece<T>*>(ctx);
+  p.job->listed_pass(p.job->ec, p.job->stepped.data(), Range{p.first_tet + r.begin, p.first_tet + r.end});
 }
 template <class T>
 void run_pack(const void* ctx, Range r) {
@@ -226,6 +260,12 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     if (b >= e) continue;
     last_tick_tets_ += e - b;
     const LevelJobState<T>& js = job_state_[j];
+    if (!js.stepped.empty()) {  // listed: one piece, positions [b, e) of the list
+      pieces_.push_back({&js, b});
+      const std::size_t n = e - b;
+      elements.push_back({n, tick_grain(n, kTickTetChunk, kTetGrain, exec.threads()), &run_listed_piece<T>, &pieces_.back()});
+      continue;
+    }
     const auto& runs = level_of(j).stepped_runs;
     std::size_t k = std::size_t(std::upper_bound(js.run_start.begin(), js.run_start.end(), b) - js.run_start.begin()) - 1;
     while (b < e) {
@@ -698,8 +738,9 @@ double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) 
 template <class T>
 double Simulation<T>::stiffness_ratio(Executor& exec) const {
   double ratio = 1;
-  for (const SimBody<T>& body : bodies)
-    for (const Level<T>& L : body.levels) {
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    for (std::size_t l = 0; l < bodies[b].levels.size(); ++l) {
+      const Level<T>& L = bodies[b].levels[l];
       if (L.model == ForceModel::linear) continue;
       ElementContext<T> ec = element_context(L);
       if (L.model == ForceModel::corotational && pack_pays(L, L.stepped_count)) {
@@ -711,6 +752,21 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
         const PackContext<T> pc = pack_context(mutable_level);
         exec.parallel_for(L.node_count, pass_grain(L.node_count, kNodeGrain), [&](Range r) { pack_positions(pc, r); });
         ec.xp = pc.xp;
+      }
+      const std::vector<std::int32_t>* listed =
+          b < job_of_body_.size() ? &job_state_[job_of_body_[b] + l].stepped : nullptr;
+      if (L.model == ForceModel::corotational && listed && !listed->empty()) {
+        // A level stepped from a list (prepare): its stepped tets in full lanes, as its force pass.
+        const std::size_t n = listed->size(), grain = pass_grain(n, kTetGrain), chunks = (n + grain - 1) / grain;
+        chunk_max.resize(chunks);
+        double* top = chunk_max.data();
+        const std::int32_t* ids = listed->data();
+        exec.parallel_for(chunks, 1, [&](Range cr) {
+          for (std::size_t i = cr.begin; i < cr.end; ++i)
+            top[i] = element_stiffness_ratio_corotational_max_listed(ec, ids, Range{i * grain, std::min(n, (i + 1) * grain)});
+        });
+        for (std::size_t i = 0; i < chunks; ++i) ratio = std::max(ratio, top[i]);
+        continue;
       }
       if (L.model != ForceModel::corotational) grow_scratch(L.tet_count);
       double* out = scratch.data();

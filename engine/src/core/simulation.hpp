@@ -131,6 +131,11 @@ struct LevelJobState {
   ElementContext<T> ec;
   ElementPass<T> pass = nullptr;
   std::vector<std::size_t> run_start;  // stepped-tet index at which each run begins (+ the total)
+  // A level whose stepped tets lie in short runs (a multiresolution level stepping a region of its
+  // mesh) steps them from a list instead, in full vector lanes: stepped[i] is its i-th stepped tet
+  // (Simulation::prepare decides; empty: by runs).
+  ListedElementPass<T> listed_pass = nullptr;
+  std::vector<std::int32_t> stepped;
   PackContext<T> pack;  // positions into x_packed, before the element pass (ec.xp set each tick)
   GatherContext<T> gc;
   IntegrateContext<T> ic;
@@ -149,11 +154,12 @@ struct LevelJobState {
 // E integration of coupled levels.
 enum TickPhase : std::size_t { kPhaseGhosts, kPhasePack, kPhaseElements, kPhaseNodes, kPhaseReceive, kPhaseIntegrate, kTickPhases };
 
-// A piece of one level's element work on a tick: a stretch of consecutive stepped tets.
+// A piece of one level's element work on a tick: a stretch of consecutive stepped tets, or of a
+// listed level's list (LevelJobState::stepped).
 template <class T>
 struct ElementPiece {
   const LevelJobState<T>* job = nullptr;
-  std::size_t first_tet = 0;
+  std::size_t first_tet = 0;  // its first tet (by runs) or its first position in the list (listed)
 };
 
 // A piece of one level's node work: a run of nodes [first, first + count) that holds every node
@@ -238,6 +244,7 @@ class Simulation {
   std::int64_t ticks() const { return tick_; }
   std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
   std::size_t pass_nodes(int body, int level) const;  // nodes the level's node passes run over
+  bool steps_listed(int body, int level) const;        // its element pass runs from a list
 
   void elastic_energies(Executor& exec, double& elastic) const;
   double body_energy(const SimBody<T>& body) const;    // kinetic + elastic of one body (J)

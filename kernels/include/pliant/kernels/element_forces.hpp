@@ -10,6 +10,8 @@
 // and f_c = -V P grad(phi_c). Viscous stress (thesis ch.2 §4) is added to sigma (or S) with the
 // strain rate of the same measure.
 #pragma once
+#include <cstdint>
+
 #include "pliant/kernels/element_context.hpp"
 #include "pliant/kernels/range.hpp"
 
@@ -26,6 +28,15 @@ template <class T> void element_forces_linear(const ElementContext<T>& c, Range 
 template <class T> void element_forces_stvk(const ElementContext<T>& c, Range tets);
 template <class T> void element_forces_corotational(const ElementContext<T>& c, Range tets);
 template <class T> void element_forces_springs(const ElementContext<T>& c, Range tets);
+
+// The same passes over listed tets: tets[i] for i in r (sorted or not, no tet twice). For a level
+// that steps part of its mesh (multiresolution), whose stepped tets lie in short runs: a batch of
+// W lanes is full however the runs are cut (gathers and per-lane stores instead of contiguous
+// loads). The same bits per tet as the range passes.
+template <class T> void element_forces_linear_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
+template <class T> void element_forces_stvk_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
+template <class T> void element_forces_corotational_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
+template <class T> void element_forces_springs_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
 
 // Elastic energy of each tet into energy[tet] (J). The corotational energy uses (and may
 // refine) the stored rotations, so it is consistent with the last force pass.

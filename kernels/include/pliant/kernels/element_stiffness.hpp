@@ -53,6 +53,8 @@
 // cost about a third of a force pass instead of 1.5 (perf, 1 thread; docs/performance.md "Small
 // bodies: the deformation monitor and chunk ownership").
 #pragma once
+#include <cstdint>
+
 #include "pliant/kernels/element_context.hpp"
 #include "pliant/kernels/range.hpp"
 
@@ -70,6 +72,9 @@ template <class T> void element_stiffness_ratio_corotational(const ElementContex
 // needs): max(1, ratio[t]...) with NaN ratios skipped, as a std::max(top, ratio[t]) loop over
 // element_stiffness_ratio_corotational's output would give. The divergence check reports NaN.
 template <class T> double element_stiffness_ratio_corotational_max(const ElementContext<T>& c, Range tets);
+// The same over listed tets: tets[i] for i in r (a level stepped from a list, element_forces.hpp).
+template <class T>
+double element_stiffness_ratio_corotational_max_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
 // The same ratios as element_stiffness_ratio_corotational, one tet at a time in scalar code (no
 // lanes): the reference of the tests.
 template <class T>

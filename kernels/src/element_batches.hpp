@@ -1,0 +1,165 @@
+// The force passes' batch functions, one per force model: W tets at a time, one per vector lane
+// (tet_batch.hpp), at either addressing (At: ConsecutiveTets or ListedTets). Each lane does the
+// arithmetic of the scalar helpers of tet_local.hpp, so results are the same bits as a
+// one-tet-at-a-time loop, whatever the range boundaries or the list
+// (tests/kernels/test_kernel_batches.cpp). Branch-free per batch except the corotational rotation
+// refinement (until every lane has converged); damping terms are compiled in only when a viscous
+// coefficient is non-zero (Damped), so undamped runs do not read velocities.
+//
+// Included by element_forces.cpp (the passes over ranges) and element_forces_listed.cpp (over
+// lists): one translation unit each, so that each keeps the inlining budget the range passes
+// had alone (in one unit, GCC 12 left the small matrix helpers out of line: slower).
+#pragma once
+#include <algorithm>
+#include <cstdint>
+
+#include "pliant/kernels/element_context.hpp"
+#include "tet_batch.hpp"
+#include "tet_local.hpp"
+
+namespace pliant::detail {
+
+template <class T>
+bool has_viscosity(const ElementContext<T>& c) {
+  return c.bulk_viscosity != T(0) || c.shear_viscosity != T(0);
+}
+
+// ---- linear (Cauchy) ------------------------------------------------------------------------
+struct Linear {
+  template <class T, bool Damped, class At>
+  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
+};
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void Linear::batch(const ElementContext<T>& c, const At& at) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  load_batch(c, at, e);
+  Mat3<V> eps = sym(corner_gradient(e.x, e.g));
+  for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
+  Mat3<V> P = hooke(eps, c.lambda, c.mu);
+  if constexpr (Damped) {
+    V v[4][3];
+    gather_corners(c.v, e, v);
+    add_to(P, hooke(sym(corner_gradient(v, e.g)), c.bulk_viscosity,
+                                    c.shear_viscosity));
+  }
+  store_corner_forces_batch(c, at, P, e.g, e.volume);
+}
+
+// ---- St Venant–Kirchhoff (Green–Lagrange) ---------------------------------------------------
+struct Stvk {
+  template <class T, bool Damped, class At>
+  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
+};
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void Stvk::batch(const ElementContext<T>& c, const At& at) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  load_batch(c, at, e);
+  const Mat3<V> F = corner_gradient(e.x, e.g);
+  Mat3<V> E = sym(mul_tn(F, F));
+  for (int i = 0; i < 3; ++i) E.m[i][i] -= T(1);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) E.m[i][j] *= T(0.5);
+  Mat3<V> S = hooke(E, c.lambda, c.mu);
+  if constexpr (Damped) {
+    V v[4][3];
+    gather_corners(c.v, e, v);
+    const Mat3<V> Fdot = corner_gradient(v, e.g);
+    add_to(S, hooke(sym(mul_tn(F, Fdot)), c.bulk_viscosity, c.shear_viscosity));
+  }
+  store_corner_forces_batch(c, at, mul(F, S), e.g, e.volume);
+}
+
+// ---- corotational ---------------------------------------------------------------------------
+struct Corotational {
+  template <class T, bool Damped, class At>
+  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
+};
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void Corotational::batch(const ElementContext<T>& c, const At& at) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  load_batch(c, at, e);
+  const Mat3<V> F[1] = {corner_gradient(e.x, e.g)};
+  V q[1][4];
+  for (int k = 0; k < 4; ++k) q[0][k] = at.load(c.rotation[k]);
+  Mat3<V> R[1];
+  extract_rotation_batches<T, 1>(F, q, R);
+  for (int k = 0; k < 4; ++k) at.store(c.rotation[k], q[0][k]);
+  Mat3<V> eps = sym(mul_tn(R[0], F[0]));
+  for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
+  Mat3<V> sigma = hooke(eps, c.lambda, c.mu);
+  if constexpr (Damped) {
+    V v[4][3];
+    gather_corners(c.v, e, v);
+    const Mat3<V> Fdot = corner_gradient(v, e.g);
+    add_to(sigma,
+                   hooke(sym(mul_tn(R[0], Fdot)), c.bulk_viscosity, c.shear_viscosity));
+  }
+  store_corner_forces_batch(c, at, mul(R[0], sigma), e.g, e.volume);
+}
+
+// ---- springs --------------------------------------------------------------------------------
+constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+
+struct Springs {
+  template <class T, bool Damped, class At>
+  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
+};
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void Springs::batch(const ElementContext<T>& c, const At& at) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
+  V X[4][3], v[4][3];
+  load_positions(c, e);
+  auto& x = e.x;
+  gather_corners(c.X, e, X);
+  if constexpr (Damped) gather_corners(c.v, e, v);
+  const V volume = at.load(c.volume);
+  V f[4][3] = {};
+  for (const auto& edge : kEdges) {
+    const int a = edge[0], b = edge[1];
+    V d[3], D[3];
+    for (int k = 0; k < 3; ++k) {
+      d[k] = x[b][k] - x[a][k];
+      D[k] = X[b][k] - X[a][k];
+    }
+    const V L2 = D[0] * D[0] + D[1] * D[1] + D[2] * D[2];
+    const V L = simd::sqrt(L2);
+    const V l = simd::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    const V k_spring = c.young * volume / L2;  // N/m
+    const V inv_l = l > T(0) ? T(1) / l : V{};
+    V s = k_spring * (l - L);  // tension (N)
+    if constexpr (Damped) {
+      V rel = V{};
+      for (int k = 0; k < 3; ++k) rel += (v[b][k] - v[a][k]) * d[k];
+      s += c.spring_damping * k_spring * rel * inv_l;
+    }
+    for (int k = 0; k < 3; ++k) {
+      const V fk = s * d[k] * inv_l;
+      f[a][k] += fk;
+      f[b][k] -= fk;
+    }
+  }
+  for (int a = 0; a < 4; ++a)
+    for (int k = 0; k < 3; ++k) at.store(c.corner_force[3 * a + k], f[a][k]);
+}
+
+// The passes: W tets at a time of the range, or of the listed tets ids[r.begin..r.end). One
+// function per model, damping and addressing, so that each inlines its one batch.
+template <class Model, class T, bool Damped>
+void range_pass(const ElementContext<T>& c, Range r) {
+  constexpr int W = simd::Pack<T>::W;
+  for (std::size_t t = r.begin; t < r.end; t += W)
+    Model::template batch<T, Damped>(c, ConsecutiveTets<T>{t, int(std::min<std::size_t>(W, r.end - t))});
+}
+template <class Model, class T, bool Damped>
+void listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r) {
+  constexpr int W = simd::Pack<T>::W;
+  for (std::size_t t = r.begin; t < r.end; t += W)
+    Model::template batch<T, Damped>(c, ListedTets<T>(ids + t, int(std::min<std::size_t>(W, r.end - t))));
+}
+
+}  // namespace pliant::detail
