@@ -147,6 +147,28 @@ __attribute__((always_inline)) inline void Springs::batch(const ElementContext<T
     for (int k = 0; k < 3; ++k) at.store(c.corner_force[3 * a + k], f[a][k]);
 }
 
+// ---- corotational elastic energy --------------------------------------------------------------
+// energy[t] (J) of the batch's tets: element_energy_corotational's scalar arithmetic per lane (the
+// stored rotation refined on a copy, never written back), converted to double lane by lane.
+template <class T, class At>
+inline void corotational_energy_batch(const ElementContext<T>& c, const At& at, double* energy) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  load_batch(c, at, e);
+  const Mat3<V> F[1] = {corner_gradient(e.x, e.g)};
+  V q[1][4];
+  for (int k = 0; k < 4; ++k) q[0][k] = at.load(c.rotation[k]);
+  Mat3<V> R[1];
+  extract_rotation_batches<T, 1>(F, q, R);
+  Mat3<V> eps = sym(mul_tn(R[0], F[0]));
+  for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
+  const V tr = trace(eps), dd = ddot(eps, eps);
+  for (int l = 0; l < at.count; ++l) {
+    const double trl = double(tr[l]);
+    energy[at.tet(l)] = double(e.volume[l]) * (double(c.mu) * double(dd[l]) + 0.5 * double(c.lambda) * trl * trl);
+  }
+}
+
 // The passes: W tets at a time of the range, or of the listed tets ids[r.begin..r.end). One
 // function per model, damping and addressing, so that each inlines its one batch.
 template <class Model, class T, bool Damped>

@@ -93,7 +93,7 @@ void element_energy_stvk(const ElementContext<T>& c, Range r, double* energy) {
 }
 
 template <class T>
-void element_energy_corotational(const ElementContext<T>& c, Range r, double* energy) {
+void element_energy_corotational_scalar(const ElementContext<T>& c, Range r, double* energy) {
   for (std::size_t t = r.begin; t < r.end; ++t) {
     TetLocal<T> e;
     std::int32_t n[4];
@@ -223,7 +223,7 @@ double tet_min_altitude(const double a[3], const double b[3], const double c[3],
   template void element_forces_springs<T>(const ElementContext<T>&, Range);                 \
   template void element_energy_linear<T>(const ElementContext<T>&, Range, double*);         \
   template void element_energy_stvk<T>(const ElementContext<T>&, Range, double*);           \
-  template void element_energy_corotational<T>(const ElementContext<T>&, Range, double*);   \
+  template void element_energy_corotational_scalar<T>(const ElementContext<T>&, Range, double*); \
   template void element_energy_springs<T>(const ElementContext<T>&, Range, double*);        \
   template void element_cauchy_stress<T>(const ElementContext<T>&, Range, int, double*);
 PLIANT_INSTANTIATE(float)

@@ -51,6 +51,7 @@ struct ConsecutiveTets {
   int count;
   V load(const T* p) const { return simd::load(p + first, count); }
   void store(T* p, const V& v) const { simd::store(p + first, count, v); }
+  std::size_t tet(int l) const { return first + std::size_t(l); }  // the tet of lane l < count
   void indices(const std::int32_t* p, std::int32_t out[W]) const {
     if (count == W) {
       std::memcpy(out, p + first, sizeof(std::int32_t) * W);
@@ -73,6 +74,7 @@ struct ListedTets {
   void store(T* p, const V& v) const {
     for (int l = 0; l < count; ++l) p[id[l]] = v[l];
   }
+  std::size_t tet(int l) const { return std::size_t(id[l]); }  // the tet of lane l < count
   void indices(const std::int32_t* p, std::int32_t out[W]) const {
     for (int l = 0; l < W; ++l) out[l] = p[id[l]];
   }

@@ -132,7 +132,7 @@ inline T trace(const Mat3<T>& A) { return A.m[0][0] + A.m[1][1] + A.m[2][2]; }
 
 template <class T>
 inline T ddot(const Mat3<T>& A, const Mat3<T>& B) {
-  T s = 0;
+  T s{};  // 0 (scalar) or every lane 0
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) s += A.m[i][j] * B.m[i][j];
   return s;

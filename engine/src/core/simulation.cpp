@@ -606,6 +606,23 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
   use_current_state(body, L, ec, now);
   const EnergyPass<T> pass = energy_kernel<T>(L.model);
   double* out = scratch.data();
+  // A level of short runs (steps_by_list), corotational: over a list of its stepped tets, in full
+  // lanes; the same tets in the same order as by runs, so the same sum. The list is made here from
+  // the runs as they are now, not taken from prepare(): the energy after a change is measured
+  // before the jobs are prepared again.
+  if (L.model == ForceModel::corotational && steps_by_list(L)) {
+    energy_ids.clear();
+    for (const Range& run : L.stepped_runs)
+      for (std::size_t t = run.begin; t < run.end; ++t) energy_ids.push_back(std::int32_t(t));
+    const std::int32_t* ids = energy_ids.data();
+    const std::size_t n = energy_ids.size();
+    if (exec)
+      exec->parallel_for(n, kTetGrain, [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
+    else
+      element_energy_corotational_listed(ec, ids, Range{0, n}, out);
+    for (std::size_t i = 0; i < n; ++i) sum += scratch[std::size_t(ids[i])];
+    return;
+  }
   for (const Range& run : L.stepped_runs) {
     if (exec)
       exec->parallel_for(run.size(), kTetGrain, [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
@@ -758,7 +775,7 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
       }
       const std::vector<std::int32_t>* listed =
           b < job_of_body_.size() ? &job_state_[job_of_body_[b] + l].stepped : nullptr;
-      if (L.model == ForceModel::corotational && listed && !listed->empty()) {
+      if (L.model == ForceModel::corotational && listed && !listed->empty() && listed->size() == L.stepped_count) {
         // A level stepped from a list (prepare): its stepped tets in full lanes, as its force pass.
         const std::size_t n = listed->size(), grain = pass_grain(n, kTetGrain), chunks = (n + grain - 1) / grain;
         chunk_max.resize(chunks);

@@ -265,6 +265,7 @@ class Simulation {
   // True if some level's model can stiffen beyond its rest state (stvk, corotational, springs).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
+  mutable std::vector<std::int32_t> energy_ids;  // add_elastic_energy: a listed level's stepped tets (grows, stays)
   // Sizes scratch for n tets. Never shrinks: the levels of a body take it in turn, and resizing
   // from a coarse level's size back to the finest's zeroed 0.4 MB at every deformation check of the
   // 50k-tet organ (only the entries of stepped tets, written first, are read).

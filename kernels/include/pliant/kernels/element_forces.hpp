@@ -44,6 +44,12 @@ template <class T> void element_energy_linear(const ElementContext<T>& c, Range 
 template <class T> void element_energy_stvk(const ElementContext<T>& c, Range tets, double* energy);
 template <class T> void element_energy_corotational(const ElementContext<T>& c, Range tets, double* energy);
 template <class T> void element_energy_springs(const ElementContext<T>& c, Range tets, double* energy);
+// Corotational runs W tets at a time (the rotation refinement in vector lanes, as the force pass),
+// with the bits of this one-tet-at-a-time loop, kept as the tests' reference; and over listed tets
+// (energy[tets[i]] for i in r).
+template <class T> void element_energy_corotational_scalar(const ElementContext<T>& c, Range tets, double* energy);
+template <class T>
+void element_energy_corotational_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r, double* energy);
 
 // Cauchy (true) stress of each tet (Pa), 9 components row-major into sigma9[9 t + 3 i + j].
 // measure: 0 small strain (linear; also used to report springs), 1 Green–Lagrange
