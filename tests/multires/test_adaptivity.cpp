@@ -267,6 +267,30 @@ TEST(Adaptivity, SplitsWhereTheBodyStrainsAndMergesWhenItCalms) {
   EXPECT_GE(end.check_max_seconds * double(end.checks), end.check_seconds);
 }
 
+TEST(Adaptivity, ACapOfZeroMergesWhatIsSplitThenDecidesNothingUntilItIsLifted) {
+  // The real-time controller's coarsest rung (World::set_adapt_cap(body, 0)): what is split merges
+  // at the next decision, and while the cap holds and nothing is split a decision skips its measure
+  // (nothing could change). Lifted while the bar is still bent, the decisions split again.
+  World w(no_gravity());
+  w.add_body(pushed_bar(0.03, true));
+  while (w.time() < 0.1) w.step();
+  const World::AdaptStats bent = w.adapt_stats(0);
+  ASSERT_GT(bent.splits, 0);
+  ASSERT_GT(w.level_info(0, 1).stepped_tets, 0u);
+  w.set_adapt_cap(0, 0);
+  EXPECT_EQ(w.adapt_cap(0), 0);
+  while (w.time() < 0.2) w.step();
+  const World::AdaptStats capped = w.adapt_stats(0);
+  EXPECT_EQ(w.level_info(0, 1).stepped_tets, 0u);  // every split node merged
+  EXPECT_GT(capped.merges, bent.merges);
+  EXPECT_EQ(capped.splits, bent.splits);           // none while capped, though the bar is bent
+  EXPECT_GT(capped.checks, bent.checks + 10);      // the decision points go on (every 2 ms)
+  w.set_adapt_cap(0, w.level_count(0) - 1);
+  while (w.time() < 0.25) w.step();
+  EXPECT_GT(w.adapt_stats(0).splits, capped.splits);
+  EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
+}
+
 TEST(Adaptivity, ASplitBudgetSpreadsARegionsSplitsOverDecisions) {
   // The bent bar of the test above, unlimited and with at most one split per decision
   // (World::set_adapt_split_budget, which the real-time controller sets to 2): unlimited, some
