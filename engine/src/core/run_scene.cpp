@@ -465,14 +465,26 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         const double window = world.time() - window_sim0;
         // A heavy frame ends the window at once (its rung has less room than the window's mean
         // shows: coarsen now rather than miss the frames left in the window).
-        if (window >= kControlWindow || ((frame_heavy || window_misses > 0) && rung > 0)) {
+        // What coarsening can help: a frame heavy by its own stepping. A frame late without being
+        // heavy started late, behind the heavy frame before it (already acted on: counting it too
+        // took a second rung down, the 50k organ's middle level abandoned because its finest
+        // level had overrun) or behind a wait that woke up late, which no rung changes. With
+        // frames of one step (realtime_frame 0) a miss is the only signal. A window behind the
+        // clock is busy in any case (below).
+        const bool overrun = frame_heavy || (frame <= 0 && window_misses > 0);
+        if (window >= kControlWindow || (overrun && rung > 0)) {
           const double load = window_busy / window;
           // Behind the clock counts as busy: refining again while late would never catch up.
           const double behind = (wall_now() - wall0) - (world.time() - sim0);
           const int was = rung;
-          if (load > kBusy || behind > 0.5 * kControlWindow || window_misses > 0 || frame_heavy) {
+          if (load > kBusy || behind > 0.5 * kControlWindow || overrun) {
             if (rung > 0) {
-              busy_load[std::size_t(rung)] = std::max(load, kBusy);
+              // The load the rung was found at: the heavy frame's own when a heavy frame ended the
+              // window (the window's mean averages it with the light frames before it, and a rung
+              // remembered at 0.8 of the clock was retried as soon as the load below it fell a
+              // little: on the 50k organ, whose tries of the middle level began with frames of
+              // 1.3-1.5 ms, the cheaper coarsest level brought 5 tries in 60 s instead of 3).
+              busy_load[std::size_t(rung)] = std::max({load, kBusy, frame_heavy ? frame_busy / frame : 0.0});
               --rung;
             } else if (load > 1 && !coarsest_warned) {
               // Nothing left to coarsen: the scene cannot keep the clock even at its coarsest.
