@@ -25,12 +25,8 @@ bool has_viscosity(const ElementContext<T>& c) {
 }
 
 // ---- linear (Cauchy) ------------------------------------------------------------------------
-struct Linear {
-  template <class T, bool Damped, class At>
-  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
-};
 template <class T, bool Damped, class At>
-__attribute__((always_inline)) inline void Linear::batch(const ElementContext<T>& c, const At& at) {
+__attribute__((always_inline)) inline void linear_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
@@ -40,19 +36,32 @@ __attribute__((always_inline)) inline void Linear::batch(const ElementContext<T>
   if constexpr (Damped) {
     V v[4][3];
     gather_corners(c.v, e, v);
-    add_to(P, hooke(sym(corner_gradient(v, e.g)), c.bulk_viscosity,
-                                    c.shear_viscosity));
+    add_to(P, hooke(sym(corner_gradient(v, e.g)), c.bulk_viscosity, c.shear_viscosity));
   }
   store_corner_forces_batch(c, at, P, e.g, e.volume);
 }
 
-// ---- St Venant–Kirchhoff (Green–Lagrange) ---------------------------------------------------
-struct Stvk {
-  template <class T, bool Damped, class At>
-  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
-};
+// Stores the corner forces of the first Piola–Kirchhoff stress Q S (stvk: Q = F, S the second
+// Piola–Kirchhoff stress; corotational: Q = R, S the corotated stress), with the viscous stress of
+// the strain rate sym(Q^T F_dot) added to S when Damped.
 template <class T, bool Damped, class At>
-__attribute__((always_inline)) inline void Stvk::batch(const ElementContext<T>& c, const At& at) {
+__attribute__((always_inline)) inline void store_stress_batch(const ElementContext<T>& c, const At& at,
+                                                              const TetBatch<T>& e,
+                                                              const Mat3<typename simd::Pack<T>::V>& Q,
+                                                              Mat3<typename simd::Pack<T>::V> S) {
+  using V = typename simd::Pack<T>::V;
+  if constexpr (Damped) {
+    V v[4][3];
+    gather_corners(c.v, e, v);
+    const Mat3<V> Fdot = corner_gradient(v, e.g);
+    add_to(S, hooke(sym(mul_tn(Q, Fdot)), c.bulk_viscosity, c.shear_viscosity));
+  }
+  store_corner_forces_batch(c, at, mul(Q, S), e.g, e.volume);
+}
+
+// ---- St Venant–Kirchhoff (Green–Lagrange) ---------------------------------------------------
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void stvk_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
@@ -61,54 +70,45 @@ __attribute__((always_inline)) inline void Stvk::batch(const ElementContext<T>& 
   for (int i = 0; i < 3; ++i) E.m[i][i] -= T(1);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) E.m[i][j] *= T(0.5);
-  Mat3<V> S = hooke(E, c.lambda, c.mu);
-  if constexpr (Damped) {
-    V v[4][3];
-    gather_corners(c.v, e, v);
-    const Mat3<V> Fdot = corner_gradient(v, e.g);
-    add_to(S, hooke(sym(mul_tn(F, Fdot)), c.bulk_viscosity, c.shear_viscosity));
-  }
-  store_corner_forces_batch(c, at, mul(F, S), e.g, e.volume);
+  store_stress_batch<T, Damped>(c, at, e, F, hooke(E, c.lambda, c.mu));
 }
 
 // ---- corotational ---------------------------------------------------------------------------
-struct Corotational {
-  template <class T, bool Damped, class At>
-  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
-};
-template <class T, bool Damped, class At>
-__attribute__((always_inline)) inline void Corotational::batch(const ElementContext<T>& c, const At& at) {
+// The corotated strain sym(R^T F) - I of the loaded batch e, R refined from the stored rotation
+// (its warm start); the refined rotation is stored back only when Keep (the force pass: the energy
+// report works on a copy, so that measuring never changes the trajectory).
+template <class T, bool Keep, class At>
+__attribute__((always_inline)) inline Mat3<typename simd::Pack<T>::V> corotated_strain_batch(
+    const ElementContext<T>& c, const At& at, const TetBatch<T>& e, Mat3<typename simd::Pack<T>::V>& R) {
   using V = typename simd::Pack<T>::V;
-  TetBatch<T> e;
-  load_batch(c, at, e);
   const Mat3<V> F[1] = {corner_gradient(e.x, e.g)};
   V q[1][4];
   for (int k = 0; k < 4; ++k) q[0][k] = at.load(c.rotation[k]);
-  Mat3<V> R[1];
-  extract_rotation_batches<T, 1>(F, q, R);
-  for (int k = 0; k < 4; ++k) at.store(c.rotation[k], q[0][k]);
-  Mat3<V> eps = sym(mul_tn(R[0], F[0]));
+  Mat3<V> Rb[1];
+  extract_rotation_batches<T, 1>(F, q, Rb);
+  if constexpr (Keep)
+    for (int k = 0; k < 4; ++k) at.store(c.rotation[k], q[0][k]);
+  R = Rb[0];
+  Mat3<V> eps = sym(mul_tn(R, F[0]));
   for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
-  Mat3<V> sigma = hooke(eps, c.lambda, c.mu);
-  if constexpr (Damped) {
-    V v[4][3];
-    gather_corners(c.v, e, v);
-    const Mat3<V> Fdot = corner_gradient(v, e.g);
-    add_to(sigma,
-                   hooke(sym(mul_tn(R[0], Fdot)), c.bulk_viscosity, c.shear_viscosity));
-  }
-  store_corner_forces_batch(c, at, mul(R[0], sigma), e.g, e.volume);
+  return eps;
+}
+
+template <class T, bool Damped, class At>
+__attribute__((always_inline)) inline void corotational_batch(const ElementContext<T>& c, const At& at) {
+  using V = typename simd::Pack<T>::V;
+  TetBatch<T> e;
+  load_batch(c, at, e);
+  Mat3<V> R;
+  const Mat3<V> eps = corotated_strain_batch<T, true>(c, at, e, R);
+  store_stress_batch<T, Damped>(c, at, e, R, hooke(eps, c.lambda, c.mu));
 }
 
 // ---- springs --------------------------------------------------------------------------------
 constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
-struct Springs {
-  template <class T, bool Damped, class At>
-  __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at);
-};
 template <class T, bool Damped, class At>
-__attribute__((always_inline)) inline void Springs::batch(const ElementContext<T>& c, const At& at) {
+__attribute__((always_inline)) inline void springs_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
@@ -155,19 +155,28 @@ inline void corotational_energy_batch(const ElementContext<T>& c, const At& at, 
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
-  const Mat3<V> F[1] = {corner_gradient(e.x, e.g)};
-  V q[1][4];
-  for (int k = 0; k < 4; ++k) q[0][k] = at.load(c.rotation[k]);
-  Mat3<V> R[1];
-  extract_rotation_batches<T, 1>(F, q, R);
-  Mat3<V> eps = sym(mul_tn(R[0], F[0]));
-  for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
+  Mat3<V> R;
+  const Mat3<V> eps = corotated_strain_batch<T, false>(c, at, e, R);
   const V tr = trace(eps), dd = ddot(eps, eps);
   for (int l = 0; l < at.count; ++l) {
     const double trl = double(tr[l]);
     energy[at.tet(l)] = double(e.volume[l]) * (double(c.mu) * double(dd[l]) + 0.5 * double(c.lambda) * trl * trl);
   }
 }
+
+// The models as types, for the passes below.
+#define PLIANT_BATCH_MODEL(Name, fn)                                                                   \
+  struct Name {                                                                                     \
+    template <class T, bool Damped, class At>                                                       \
+    __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at) {   \
+      fn<T, Damped>(c, at);                                                                         \
+    }                                                                                               \
+  };
+PLIANT_BATCH_MODEL(Linear, linear_batch)
+PLIANT_BATCH_MODEL(Stvk, stvk_batch)
+PLIANT_BATCH_MODEL(Corotational, corotational_batch)
+PLIANT_BATCH_MODEL(Springs, springs_batch)
+#undef PLIANT_BATCH_MODEL
 
 // The passes: W tets at a time of the range, or of the listed tets ids[r.begin..r.end). One
 // function per model, damping and addressing, so that each inlines its one batch.

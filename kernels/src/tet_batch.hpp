@@ -27,7 +27,7 @@ struct TetBatch {
 // The corner positions of the batch's tets (e.n must be loaded): from the interleaved copy
 // when the context has one (4 loads and a transpose per corner), else gathered from x[3][n].
 template <class T>
-inline void load_positions(const ElementContext<T>& c, TetBatch<T>& e) {
+__attribute__((always_inline)) inline void load_positions(const ElementContext<T>& c, TetBatch<T>& e) {
   if (c.xp) {
     for (int a = 0; a < 4; ++a) simd::gather_xyz(c.xp, e.n[a], e.x[a]);
   } else {
@@ -82,7 +82,7 @@ struct ListedTets {
 
 // Loads the batch's corner indices, positions, gradients and volumes.
 template <class T, class At>
-inline void load_batch(const ElementContext<T>& c, const At& at, TetBatch<T>& e) {
+__attribute__((always_inline)) inline void load_batch(const ElementContext<T>& c, const At& at, TetBatch<T>& e) {
   for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
   load_positions(c, e);
   for (int a = 0; a < 3; ++a)
@@ -91,14 +91,14 @@ inline void load_batch(const ElementContext<T>& c, const At& at, TetBatch<T>& e)
 }
 
 template <class T>
-inline void gather_corners(const T* const y[3], const TetBatch<T>& e, typename TetBatch<T>::V out[4][3]) {
+__attribute__((always_inline)) inline void gather_corners(const T* const y[3], const TetBatch<T>& e, typename TetBatch<T>::V out[4][3]) {
   for (int a = 0; a < 4; ++a)
     for (int k = 0; k < 3; ++k) out[a][k] = simd::gather(y[k], e.n[a]);
 }
 
 // store_corner_forces of tet_local.hpp, W tets at once.
 template <class T, class At>
-inline void store_corner_forces_batch(const ElementContext<T>& c, const At& at,
+__attribute__((always_inline)) inline void store_corner_forces_batch(const ElementContext<T>& c, const At& at,
                                       const Mat3<typename TetBatch<T>::V>& P, const typename TetBatch<T>::V g[3][3],
                                       const typename TetBatch<T>::V& volume) {
   using V = typename TetBatch<T>::V;
