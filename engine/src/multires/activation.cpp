@@ -265,7 +265,8 @@ std::pair<const std::int32_t*, const std::int32_t*> ActivationState::node_tets(i
 
 void ActivationState::evaluate_node(int l, std::int32_t i, bool& changed) {
   NodeRole role = NodeRole::inactive;
-  std::vector<GhostSource> acc;
+  std::vector<GhostSource>& acc = acc_;  // scratch kept between calls (a vector per node was a malloc each)
+  acc.clear();
   std::array<std::int32_t, 5> reads{-1, -1, -1, -1, -1};  // the level and corners of the tet it reads
   if (stepped_incident_[std::size_t(l)][std::size_t(i)] > 0) {
     role = NodeRole::active;
@@ -323,7 +324,7 @@ void ActivationState::evaluate_node(int l, std::int32_t i, bool& changed) {
   if (same()) return;
   changed = true;
   role_[std::size_t(l)][std::size_t(i)] = role;
-  old_sources = std::move(acc);
+  old_sources.assign(acc.begin(), acc.end());
 }
 
 void ActivationState::set_target(int l, std::int32_t node, int target) {

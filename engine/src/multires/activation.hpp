@@ -112,6 +112,7 @@ class ActivationState {
   std::vector<std::vector<std::vector<std::pair<std::int32_t, std::int32_t>>>> dependents_;
   std::vector<std::vector<std::array<std::int32_t, 5>>> reads_;  // per ghost: level and corners of the tet it reads
   std::vector<std::vector<std::int32_t>> dirty_targets_;  // per level
+  std::vector<GhostSource> acc_;                          // evaluate_node's scratch (its sources)
 };
 
 }  // namespace pliant::detail
