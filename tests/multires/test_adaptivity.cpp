@@ -291,6 +291,23 @@ TEST(Adaptivity, ACapOfZeroMergesWhatIsSplitThenDecidesNothingUntilItIsLifted) {
   EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
 }
 
+TEST(Adaptivity, ACapOfOneKeepsAThreeLevelBodyOffItsFinestLevelUntilLifted) {
+  // Capped at its middle level, a bent 3-level bar splits its coarsest nodes but none of its middle
+  // ones (their measure is not even taken); lifted, the middle nodes split too.
+  World w(no_gravity());
+  BodyDef b = pushed_bar(0.03, false);
+  b.multiresolution.levels = 3;
+  w.add_body(b);
+  ASSERT_EQ(w.level_count(0), 3);
+  w.set_adapt_cap(0, 1);
+  while (w.time() < 0.1) w.step();
+  EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
+  EXPECT_EQ(w.level_info(0, 2).stepped_tets, 0u);
+  w.set_adapt_cap(0, 2);
+  while (w.time() < 0.15) w.step();
+  EXPECT_GT(w.level_info(0, 2).stepped_tets, 0u);
+}
+
 TEST(Adaptivity, ASplitBudgetSpreadsARegionsSplitsOverDecisions) {
   // The bent bar of the test above, unlimited and with at most one split per decision
   // (World::set_adapt_split_budget, which the real-time controller sets to 2): unlimited, some

@@ -199,6 +199,9 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
         peak = std::max(peak, std::sqrt(e2));
       }
     if (l + 1 == levels) break;  // the finest level never splits: its peak strain is all it gives
+    // Nor does a level at or beyond the cap (World::set_adapt_cap: the real-time controller's
+    // rungs), unless force_level asks: its jump measure would not be read.
+    if (l + 1 > st.cap && st.forced_target < 0) continue;
     auto& m = measure[std::size_t(l)];
     m.assign(L.node_count, 0.0);
     const auto& nb = st.neighbours[std::size_t(l)];
@@ -323,7 +326,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
                                     detail_of(l, i, restricted_now[std::size_t(l)]) >= merge_below;
         // The budget limits the splits that refine more; a node inside a refined region splits
         // whatever it is (it keeps refinement that is there: the merge it prevents is the bug above).
-        const bool refine = splits_left > 0 && L.state[std::size_t(i)] == kNodeFree &&
+        const bool refine = l + 1 <= st.cap && splits_left > 0 && L.state[std::size_t(i)] == kNodeFree &&
                             (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)));
         if (l + 1 <= st.cap && (refined_around || refine)) {
           as.set_target(l, i, l + 1);
