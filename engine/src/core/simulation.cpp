@@ -46,6 +46,13 @@ template <class T>
 bool steps_by_list(const Level<T>& L) {
   return L.stepped_runs.size() > 1 && L.stepped_count < kListedRunsBelow * L.stepped_runs.size();
 }
+// out = the level's stepped tets, run after run (the order the passes and sums go in by runs).
+template <class T>
+void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
+  out.clear();
+  for (const Range& r : L.stepped_runs)
+    for (std::size_t t = r.begin; t < r.end; ++t) out.push_back(std::int32_t(t));
+}
 
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
@@ -73,9 +80,7 @@ void Simulation<T>::prepare(double tick_dt) {
       js.stepped.clear();
       if (steps_by_list(L)) {
         js.listed_pass = listed_force_kernel<T>(L.model);
-        js.stepped.reserve(L.stepped_count);
-        for (const Range& r : L.stepped_runs)
-          for (std::size_t t = r.begin; t < r.end; ++t) js.stepped.push_back(std::int32_t(t));
+        list_stepped(L, js.stepped);
       }
       pieces += L.stepped_runs.size() + 1;
       js.gc = gather_context(L);
@@ -611,9 +616,7 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
   // the runs as they are now, not taken from prepare(): the energy after a change is measured
   // before the jobs are prepared again.
   if (L.model == ForceModel::corotational && steps_by_list(L)) {
-    energy_ids.clear();
-    for (const Range& run : L.stepped_runs)
-      for (std::size_t t = run.begin; t < run.end; ++t) energy_ids.push_back(std::int32_t(t));
+    list_stepped(L, energy_ids);
     const std::int32_t* ids = energy_ids.data();
     const std::size_t n = energy_ids.size();
     if (exec)
