@@ -261,9 +261,10 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
                  framed ? "frames" : "steps", s.frame_mean_us, s.frame_p99_us, s.frame_max_us, s.lag_mean_s, s.lag_max_s);
     }
     for (const auto& a : s.adapt)
-      fmt::print("adaptivity of body '{}': {} splits, {} merges in {} changes, {:.0f} us per change; {} decision points, "
-                 "{:.0f} us each (mean), {:.0f} us at most\n",
-                 a.body, a.splits, a.merges, a.changes, a.apply_us_per_change, a.checks, a.check_us_mean, a.check_us_max);
+      fmt::print("adaptivity of body '{}': {} splits, {} merges in {} changes ({} undone), {:.0f} us per change; {} decision "
+                 "points, {:.0f} us each (mean), {:.0f} us at most\n",
+                 a.body, a.splits, a.merges, a.changes, a.undone, a.apply_us_per_change, a.checks, a.check_us_mean,
+                 a.check_us_max);
     for (const auto& t : s.tools)
       fmt::print("tool '{}': largest force {:.4g} N, in contact {} of {} steps, deepest penetration {:.3g} m\n", t.name,
                  t.max_force, t.contact_steps, s.steps, t.max_penetration);

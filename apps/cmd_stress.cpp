@@ -55,7 +55,7 @@ Command add_stress_command(CLI::App& app) {
               const auto s = stability::run_stress_scene(std::stoull(o->scene, nullptr, 0), 0, so);
               fmt::print("{}\n{}: {} steps, hash {:016x}, {:.2f} s{}{}\n", s.description, s.status, s.steps, s.hash,
                          s.wall_s,
-                         s.adaptive ? fmt::format(", {} splits, {} merges, mass to {:.2g}", s.splits, s.merges, s.mass_error)
+                         s.adaptive ? fmt::format(", {} splits, {} merges, {} undone, mass to {:.2g}", s.splits, s.merges, s.undone, s.mass_error)
                                     : std::string(),
                          s.message.empty() ? "" : "\n" + s.message);
               return s.status == "ok" ? 0 : 3;

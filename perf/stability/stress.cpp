@@ -483,6 +483,7 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
     out.splits = a.splits;
     out.merges = a.merges;
     out.changes = a.changes;
+    out.undone = a.undone;
   };
   out.adaptive = sc.adaptive;
   try {
@@ -556,6 +557,7 @@ StressReport run_stress(const StressOptions& o) {
       ++rep.adaptive_scenes;
       rep.splits += s.splits;
       rep.merges += s.merges;
+      rep.undone += s.undone;
       if (s.splits > 0 && s.merges > 0) ++rep.adaptive_split_and_merged;
       rep.max_mass_error = std::max(rep.max_mass_error, s.mass_error);
     }
@@ -642,8 +644,9 @@ std::string stress_text(const StressReport& r, const StressOptions& o) {
                    r.rss_start / 1048576.0, r.rss_baseline / 1048576.0, r.rss_peak / 1048576.0,
                    r.rss_end / 1048576.0, r.rss_drift / 1048576.0, r.rss_slope_per_min / 1048576.0,
                    r.memory_flat ? "flat" : "GROWING");
-  s += fmt::format("adaptive scenes {} ({} split and merged): splits {}, merges {}; mass conserved to {:.2g} (relative, worst)\n",
-                   r.adaptive_scenes, r.adaptive_split_and_merged, r.splits, r.merges, r.max_mass_error);
+  s += fmt::format("adaptive scenes {} ({} split and merged): splits {}, merges {}, changes undone {}; mass conserved to {:.2g} "
+                   "(relative, worst)\n",
+                   r.adaptive_scenes, r.adaptive_split_and_merged, r.splits, r.merges, r.undone, r.max_mass_error);
   s += fmt::format("digest of the first {} scene hashes: {}\n", r.digest_scenes, hash_hex(r.digest));
   s += "mix:";
   for (const auto& [k, v] : r.counts) s += fmt::format(" {}={}", k, v);

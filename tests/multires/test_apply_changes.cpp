@@ -12,6 +12,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
+#include <memory>
 #include <cstdio>
 #include <array>
 #include <random>
@@ -342,6 +344,123 @@ TEST(ApplyChanges, OneSplitAndItsMergeTouchOnlyTheNodesAroundIt) {
     EXPECT_LT(double(a.work[step].nodes), 0.05 * double(a.body_nodes));
     EXPECT_LT(double(a.work[step].tets), 0.25 * double(a.body_tets));
   }
+}
+
+// undo_change (adaptivity.hpp), on a bent and moving bar split around one bump: a decision that
+// only merges (the bar straightened) is undone, and every array of every level and the patch state
+// are the same bits as before it; non-nested levels too, where the masses depend on the history of
+// changes (apply_changes.hpp), so an undo that only applied the old activation again would not
+// give them back. A decision that merges and splits (a bump elsewhere) is applied again without
+// its merges: the merged nodes are split again, and every node the splits left alone has the bits
+// it had. The counts: the merges dropped are not counted as merges but as deferred.
+struct UndoOutcome {
+  std::int64_t splits = 0, merges = 0;
+};
+
+template <class A>
+bool same_bits(const A& got, const A& want) {
+  return got.size() == want.size() && std::memcmp(got.data(), want.data(), got.size() * sizeof(got[0])) == 0;
+}
+
+UndoOutcome undo_a_change(BodyDef def, bool and_split) {
+  def.multiresolution.active.adapt.min_dwell = 0;  // a region calm at one decision merges at it
+  Adaptive a(def);
+  a.body.adapt = make_adaptive_state(std::shared_ptr<const Hierarchy>(&a.h, [](const Hierarchy*) {}),
+                                     def.multiresolution.active, a.body);
+  AdaptiveState& st = *a.body.adapt;
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<double> velocity(-0.1, 0.1);
+  const double length = def.mesh.max[0];
+  // A bump of 1 cm, an eighth of the bar wide, about x = c (none: c < 0); every node moving.
+  auto bend = [&](double c) {
+    for (auto& L : a.body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i) {
+        const double d = (L.X[0][i] - c) / (0.125 * length);
+        for (int k = 0; k < 3; ++k) L.x[k][i] = L.X[k][i];
+        if (c >= 0) L.x[1][i] += 0.01 * std::exp(-d * d);
+        for (int k = 0; k < 3; ++k) L.v[k][i] = velocity(rng);
+      }
+  };
+  bend(0.3 * length);
+  EXPECT_TRUE(adapt_body(a.body, 0.0));  // splits around the bump
+  bend(and_split ? 0.7 * length : -1);   // the first region calm (merges); a second bump (splits)
+  const SimBody<double> before = a.body;
+  const PatchState ps_before = st.patch;
+  const std::int64_t splits = st.splits, merges = st.merges, changes = st.changes;
+  EXPECT_TRUE(adapt_body(a.body, 0.01));
+  EXPECT_TRUE(st.undoable);
+  UndoOutcome out;
+  std::vector<TargetChange> merged;
+  for (const TargetChange& c : st.decided) {
+    (c.kind == TargetChange::merge ? out.merges : out.splits)++;
+    if (c.kind == TargetChange::merge) merged.push_back(c);
+  }
+  EXPECT_EQ(undo_change(a.body, 0.01), and_split);  // something applied again: the splits
+  EXPECT_FALSE(st.undoable);
+  for (const TargetChange& c : merged) EXPECT_EQ(st.activation->target(c.level, c.node), c.from);  // split again
+  for (std::size_t l = 0; l < a.body.levels.size(); ++l) {
+    SCOPED_TRACE("level " + std::to_string(l));
+    const Level<double>& G = a.body.levels[l];
+    const Level<double>& W = before.levels[l];
+    if (and_split) {  // the nodes the splits left alone (same state, not a ghost, whose entries lag)
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < G.node_count; ++i)
+        if (G.state[i] == W.state[i] && G.state[i] != kNodeGhost && G.state[i] != kNodeInactive)
+          for (int k = 0; k < 3; ++k) differ += G.x[k][i] != W.x[k][i] || G.v[k][i] != W.v[k][i];
+      EXPECT_EQ(differ, 0u);
+      continue;
+    }
+    EXPECT_EQ(G.stepped_runs.size(), W.stepped_runs.size());
+    for (std::size_t r = 0; r < std::min(G.stepped_runs.size(), W.stepped_runs.size()); ++r)
+      EXPECT_TRUE(G.stepped_runs[r].begin == W.stepped_runs[r].begin && G.stepped_runs[r].end == W.stepped_runs[r].end);
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_TRUE(same_bits(G.x[k], W.x[k])) << "x";
+      EXPECT_TRUE(same_bits(G.v[k], W.v[k])) << "v";
+      EXPECT_TRUE(same_bits(G.external[k], W.external[k])) << "external";
+    }
+    EXPECT_TRUE(same_bits(G.mass, W.mass)) << "mass";
+    EXPECT_TRUE(same_bits(G.inv_mass, W.inv_mass)) << "inv_mass";
+    EXPECT_TRUE(same_bits(G.state, W.state)) << "state";
+    EXPECT_TRUE(same_bits(G.ghosts, W.ghosts) && same_bits(G.ghost_offsets, W.ghost_offsets) &&
+                same_bits(G.ghost_source_node, W.ghost_source_node) && same_bits(G.ghost_weight, W.ghost_weight))
+        << "ghosts";
+    EXPECT_TRUE(same_bits(G.receivers, W.receivers) && same_bits(G.receive_offsets, W.receive_offsets) &&
+                same_bits(G.receive_weight, W.receive_weight))
+        << "receivers";
+    for (std::size_t m = 0; m < a.body.motions.size(); ++m) EXPECT_EQ(a.body.motions[m].nodes[l], before.motions[m].nodes[l]);
+    EXPECT_TRUE(same_bits(st.patch.own_mass[l], ps_before.own_mass[l])) << "own_mass";
+    EXPECT_TRUE(same_bits(st.patch.raw_mass[l], ps_before.raw_mass[l])) << "raw_mass";
+  }
+  if (!and_split) {
+    EXPECT_EQ(st.patch.raw_total, ps_before.raw_total);
+    EXPECT_EQ(st.patch.load_count, ps_before.load_count);
+  }
+  EXPECT_EQ(st.merges, merges);
+  EXPECT_EQ(st.deferred_merges, out.merges);
+  EXPECT_EQ(st.splits, splits + out.splits);
+  EXPECT_EQ(st.changes, changes + (and_split ? 1 : 0));
+  EXPECT_EQ(st.undone, 1);
+  return out;
+}
+
+TEST(ApplyChanges, AnUndoneChangeLeavesTheBodyAsItWasToTheBit) {
+  const UndoOutcome merges = undo_a_change(bar({16, 4, 4}, 3, 2), false);
+  const UndoOutcome both = undo_a_change(bar({16, 4, 4}, 3, 2), true);
+  BodyDef def = bar({18, 6, 6}, 2, 2);
+  MeshSourceDef coarse = def.mesh;  // non-nested, as in the random changes above
+  coarse.cells = {6, 2, 2};
+  coarse.tets_per_cell = 5;
+  def.multiresolution.coarser = {coarse};
+  const UndoOutcome non_nested = undo_a_change(def, false);
+  std::printf("undone: %lld merges (nested, 3 levels); %lld merges, %lld splits kept (a second bump); %lld merges "
+              "(non-nested)\n",
+              static_cast<long long>(merges.merges), static_cast<long long>(both.merges), static_cast<long long>(both.splits),
+              static_cast<long long>(non_nested.merges));
+  EXPECT_GT(merges.merges, 0);
+  EXPECT_EQ(merges.splits, 0);
+  EXPECT_GT(both.merges, 0);
+  EXPECT_GT(both.splits, 0);
+  EXPECT_GT(non_nested.merges, 0);
 }
 
 }  // namespace

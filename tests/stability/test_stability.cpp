@@ -406,6 +406,26 @@ TEST(Stress, ThreeLevelScenesThatGainedEnergyAtTheirChangesPass) {
     EXPECT_GT(s.merges, 0);
 }
 
+TEST(Stress, AdaptiveScenesWhoseMergesGainedEnergyPass) {
+  // Five of the 11 adaptive scenes of docs/stress.md's 15-minute run (seed 7) that ended "energy
+  // unbounded", each at a decision that merged while the body's motion had little to give back (a
+  // bent bar at the end of its swing): 39% to 141% of the body's energy added at once. Such a change
+  // is now undone and applied again without its merges (undo_change). The other six gain through
+  // splits of non-nested levels, or between changes, and still fail: docs/stress.md.
+  std::int64_t undone = 0;
+  for (const StressScene& s :
+       run_named_scenes({{0xd1e38a197d1a4b6bull, "adaptive nested box 0.143x0.026x0.028 8x2x2x6, 2 levels"},
+                         {0x4ee6791418a0138dull, "adaptive nested box 0.108x0.038x0.025 12x4x4x6, 3 levels"},
+                         {0x483ca96c4745be41ull, "adaptive nested box 0.262x0.076x0.042 16x4x4x6, 3 levels"},
+                         {0xb38007d166536f35ull, "adaptive non-nested box 0.179x0.088x0.098 5x4x4x6, 2 levels"},
+                         {0xacef5b1a1e2fd5a0ull, "adaptive non-nested box 0.110x0.056x0.026 5x4x2x6, 2 levels"}})) {
+    EXPECT_GT(s.merges, 0);
+    EXPECT_GE(s.undone, 1) << s.description;  // each had a change undone
+    undone += s.undone;
+  }
+  fmt::print("{} changes undone\n", undone);
+}
+
 TEST(Stress, ShortRunIsCleanAndReproducible) {
   StressOptions o;
   o.seconds = 4;

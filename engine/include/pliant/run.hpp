@@ -130,6 +130,7 @@ struct RunSummary {
     std::int64_t checks = 0;         // decision points
     double check_us_mean = 0;        // us of wall time per decision point (measure, decide, apply, energy)
     double check_us_max = 0;         // the longest one
+    std::int64_t undone = 0;         // changes undone: their added energy was more than the motion could give back
   };
   std::vector<Adapt> adapt;
   // Tools (docs/tool.md), over the run's steps.

@@ -175,6 +175,10 @@ class World {
     // that refinement (no merge drops detail nobody measured) rather than add to it, and the split
     // budget does not limit them.
     std::int64_t keeping_splits = 0;
+    // Changes undone because they added more energy than the body's motion could give back
+    // (docs/multiresolution.md "Energy at a change"), and the merges they dropped (applied again
+    // without them; those nodes wait min_dwell again). Not in `merges`.
+    std::int64_t undone = 0, deferred_merges = 0;
   };
   AdaptStats adapt_stats(BodyId body) const;  // zeros for a body that is not adaptive
   // At its next decision, an adaptive body activates every node up to `level` (0: the coarsest

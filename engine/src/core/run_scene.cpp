@@ -212,7 +212,7 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     for (const auto& x : s.adapt)
       a.push_back({{"body", x.body}, {"splits", x.splits}, {"merges", x.merges}, {"changes", x.changes},
                    {"apply_us_per_change", x.apply_us_per_change}, {"checks", x.checks},
-                   {"check_us_mean", x.check_us_mean}, {"check_us_max", x.check_us_max}});
+                   {"check_us_mean", x.check_us_mean}, {"check_us_max", x.check_us_max}, {"undone", x.undone}});
     j["adaptivity"] = a;
     std::int64_t splits = 0, merges = 0;
     for (const auto& x : s.adapt) {
@@ -593,7 +593,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     if (a.checks == 0) continue;
     s.adapt.push_back({world.body_def(BodyId(b)).name, a.splits, a.merges, a.changes,
                        a.changes > 0 ? 1e6 * a.apply_seconds / double(a.changes) : 0.0, a.checks,
-                       1e6 * a.check_seconds / double(a.checks), 1e6 * a.check_max_seconds});
+                       1e6 * a.check_seconds / double(a.checks), 1e6 * a.check_max_seconds, a.undone});
   }
   const TickStats& ts = world.tick_stats();
   s.tet_updates = ts.tet_updates();

@@ -496,7 +496,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     }
     // A change of level is not energy-neutral (the coarser tets lock in bending, a merged region
     // snaps to the coarse field): what a change adds to kinetic + elastic energy is taken back from
-    // the body's motion relative to its mean velocity (momentum kept), as far as that motion has it.
+    // the body's motion relative to its mean velocity (momentum kept). Where that motion cannot
+    // give it back (a bent body at the end of its swing has almost none) and what would stay is more
+    // than kUnpaidShare of the body's energy before it, a change that merged is undone and applied
+    // again without its merges (undo_change).
     const bool due = body.adapt->forced_target >= 0 || t + h + 1e-12 >= body.adapt->next_check;
     if (!due) continue;
     const auto started = std::chrono::steady_clock::now();
@@ -512,7 +515,9 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       clock_check();
       continue;
     }
-    const double excess = body_energy(body) - e_before;
+    double excess = body_energy(body) - e_before;
+    if (body.adapt->undoable && excess - motion_energy(body) > kUnpaidShare * e_before)
+      excess = undo_change(body, t + h) ? body_energy(body) - e_before : 0.0;
     if (excess > 0) take_energy(body, excess);
     clock_check();
     adapted = true;
@@ -648,18 +653,20 @@ double Simulation<T>::body_energy(const SimBody<T>& body) const {
   return e;
 }
 
-// Removes `excess` J from the free nodes' motion relative to their mean velocity (momentum kept), as
-// far as that motion holds it.
+namespace {
+// The kinetic energy of the free nodes' motion relative to their mean velocity (J), with their
+// mass (kg) and momentum (kg m/s): what take_energy can take without changing the momentum.
 template <class T>
-void Simulation<T>::take_energy(SimBody<T>& body, double excess) {
-  double m = 0, p[3] = {0, 0, 0};
+double relative_kinetic(const SimBody<T>& body, double& m, double p[3]) {
+  m = 0;
+  p[0] = p[1] = p[2] = 0;
   for (const Level<T>& L : body.levels)
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree) {
         m += double(L.mass[n]);
         for (int k = 0; k < 3; ++k) p[k] += double(L.mass[n]) * double(L.v[k][n]);
       }
-  if (!(m > 0)) return;
+  if (!(m > 0)) return 0;
   double relative = 0;
   for (const Level<T>& L : body.levels)
     for (std::size_t n = 0; n < L.node_count; ++n)
@@ -668,7 +675,23 @@ void Simulation<T>::take_energy(SimBody<T>& body, double excess) {
           const double u = double(L.v[k][n]) - p[k] / m;
           relative += 0.5 * double(L.mass[n]) * u * u;
         }
-  if (!(relative > 0)) return;
+  return relative;
+}
+}  // namespace
+
+template <class T>
+double Simulation<T>::motion_energy(const SimBody<T>& body) const {
+  double m, p[3];
+  return relative_kinetic(body, m, p);
+}
+
+// Removes `excess` J from the free nodes' motion relative to their mean velocity (momentum kept), as
+// far as that motion holds it.
+template <class T>
+void Simulation<T>::take_energy(SimBody<T>& body, double excess) {
+  double m, p[3];
+  const double relative = relative_kinetic(body, m, p);
+  if (!(m > 0) || !(relative > 0)) return;
   const double scale = std::sqrt(std::max(0.0, 1.0 - excess / relative));
   for (Level<T>& L : body.levels)
     for (std::size_t n = 0; n < L.node_count; ++n)

@@ -405,24 +405,7 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
         if (!(std::isfinite(ad.refine_near) && (ad.refine_near >= 0 || ad.refine_near == -1)))
           throw InputError(fmt::format("body '{}': multiresolution.adapt.refine_near must be a finite distance >= 0 (m), "
                                        "or -1 (\"auto\": one mean edge of each level), got {}", def.name, ad.refine_near));
-        auto a = std::make_shared<detail::AdaptiveState>();
-        a->hierarchy = h;
-        a->activation = std::make_unique<detail::ActivationState>(*h, detail::node_targets(*h, def.multiresolution.active));
-        a->def = def.multiresolution.active.adapt;
-        for (const TetMesh& m : h->meshes) {
-          a->calm_since.emplace_back(m.node_count(), -1.0);
-          a->neighbours.push_back(detail::face_neighbours(m));
-          double sum = 0;
-          for (const Tet& t : m.tets)
-            for (int e = 0; e < 3; ++e) {
-              const Vec3d p = m.point(std::size_t(t[std::size_t(e)])), q = m.point(std::size_t(t[std::size_t(e) + 1]));
-              sum += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
-            }
-          a->edge.push_back(sum / (3.0 * double(m.tet_count())));
-        }
-        a->patch = detail::make_patch_state(b, *h);
-        detail::size_adapt_scratch(*a);
-        b.adapt = std::move(a);
+        b.adapt = detail::make_adaptive_state(h, def.multiresolution.active, b);
       }
     } else {
       b.def = def;
@@ -555,7 +538,7 @@ World::AdaptStats World::adapt_stats(BodyId b) const {
     if (body.adapt)
       a = {body.adapt->splits,        body.adapt->merges,        body.adapt->checks, body.adapt->changes,
            body.adapt->apply_seconds, body.adapt->check_seconds, body.adapt->check_max_seconds, body.adapt->touched_nodes, body.adapt->touched_tets,
-           body.adapt->keeping_splits};
+           body.adapt->keeping_splits, body.adapt->undone, body.adapt->deferred_merges};
     return a;
   });
 }

@@ -5,6 +5,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <memory>
 
 #include "../collision/closest_points.hpp"
@@ -142,7 +143,51 @@ CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const Sta
   return f;
 }
 
+// The state an undo restores (AdaptiveState::Scratch::before): every node's x, v, mass and
+// inv_mass, copied as they are (bytes: a copy, not a conversion; on the 50k-tet organ, 8 arrays of
+// 13 000 floats, about 0.4 MB, at each decision that changes the body and can be undone).
+template <class T>
+std::array<AlignedVector<T>*, 8> undo_arrays(Level<T>& L) {
+  return {&L.x[0], &L.x[1], &L.x[2], &L.v[0], &L.v[1], &L.v[2], &L.mass, &L.inv_mass};
+}
+
+template <class T>
+void save_state(SimBody<T>& body, AdaptiveState& st) {
+  auto& before = st.scratch.before;
+  before.resize(body.levels.size());
+  for (std::size_t l = 0; l < body.levels.size(); ++l) {
+    const std::size_t bytes = body.levels[l].node_count * sizeof(T);
+    before[l].resize(8 * bytes);
+    std::size_t at = 0;
+    for (const AlignedVector<T>* a : undo_arrays(body.levels[l])) {
+      std::memcpy(before[l].data() + at, a->data(), bytes);
+      at += bytes;
+    }
+  }
+  st.scratch.raw_total = st.patch.raw_total;
+  st.scratch.touched_since = st.patch.touched_since;
+  st.scratch.renormalisations = st.patch.renormalisations;
+}
+
+template <class T>
+void restore_state(SimBody<T>& body, AdaptiveState& st) {
+  for (std::size_t l = 0; l < body.levels.size(); ++l) {
+    const std::size_t bytes = body.levels[l].node_count * sizeof(T);
+    std::size_t at = 0;
+    for (AlignedVector<T>* a : undo_arrays(body.levels[l])) {
+      std::memcpy(a->data(), st.scratch.before[l].data() + at, bytes);
+      at += bytes;
+    }
+  }
+  st.patch.raw_total = st.scratch.raw_total;
+  st.patch.touched_since = st.scratch.touched_since;
+  st.patch.renormalisations = st.scratch.renormalisations;
+}
+
 }  // namespace
+
+template <class T>
+bool apply_targets(SimBody<T>& body, double t);
 
 template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change) {
@@ -292,8 +337,12 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
     return false;
   };
 
-  // 2. Decisions, coarse to fine, nodes in order (deterministic).
-  bool any = false;
+  // 2. Decisions, coarse to fine, nodes in order (deterministic), each kept in st.decided.
+  st.decided.clear();
+  auto decide = [&](int l, std::int32_t i, int from, int to, TargetChange::Kind kind) {
+    as.set_target(l, i, to);
+    st.decided.push_back({i, std::int16_t(l), std::int8_t(from), std::int8_t(to), kind});
+  };
   int splits_left = st.split_budget;  // World::set_adapt_split_budget: the rest wait for the next decision
   for (int l = 0; l + 1 < levels; ++l) {
     const Level<T>& L = body.levels[std::size_t(l)];
@@ -303,17 +352,15 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
       if (st.forced_target >= 0) {
         const int want = std::min(st.forced_target, l + 1) > l ? l + 1 : l;
         if (target != want) {
-          as.set_target(l, i, want);
+          decide(l, i, target, want, TargetChange::command);
           (want > l ? st.splits : st.merges)++;
-          any = true;
         }
         continue;
       }
       if (target == l + 1 && l + 1 > st.cap) {  // the cap came down: merge at once
-        as.set_target(l, i, l);
+        decide(l, i, target, l, TargetChange::command);
         calm[std::size_t(i)] = -1;
         ++st.merges;
-        any = true;
         continue;
       }
       if (target <= l) {  // not split (an adaptive body starts with every target at 0)
@@ -329,7 +376,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
         const bool refine = l + 1 <= st.cap && splits_left > 0 && L.state[std::size_t(i)] == kNodeFree &&
                             (measure[std::size_t(l)][std::size_t(i)] > split_above || is_near(l, std::size_t(i)));
         if (l + 1 <= st.cap && (refined_around || refine)) {
-          as.set_target(l, i, l + 1);
+          decide(l, i, target, l + 1, TargetChange::split);
           calm[std::size_t(i)] = -1;
           ++st.splits;
           if (refined_around) {
@@ -337,7 +384,6 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
           } else {
             --splits_left;
           }
-          any = true;
         }
       } else if (target == l + 1) {
         bool quiet = true;
@@ -353,26 +399,88 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
           calm[std::size_t(i)] = t;
         }
         if (quiet && t - calm[std::size_t(i)] >= st.def.min_dwell) {
-          as.set_target(l, i, l);
+          decide(l, i, target, l, TargetChange::merge);
           calm[std::size_t(i)] = -1;
           ++st.merges;
-          any = true;
         }
       }
     }
   }
   st.forced_target = -1;
-  if (!any) return false;
+  if (st.decided.empty()) return false;
   if (before_change) before_change();
 
-  // 3. Re-activate and carry the state over.
+  // 3. Re-activate and carry the state over; the state before is kept for undo_change when the
+  // decision can be undone: it merges, and no command is among its changes.
+  bool merges = false, commands = false;
+  for (const TargetChange& c : st.decided) {
+    merges |= c.kind == TargetChange::merge;
+    commands |= c.kind == TargetChange::command;
+  }
+  st.undoable = merges && !commands;
+  if (st.undoable) save_state(body, st);
+  if (!apply_targets(body, t)) {
+    st.undoable = false;
+    return false;
+  }
+  ++st.changes;
+  return true;
+}
+
+template <class T>
+bool undo_change(SimBody<T>& body, double t) {
+  AdaptiveState& st = *body.adapt;
+  ActivationState& as = *st.activation;
+  // Back to the activation before the decision, then to its state (apply_changes leaves the
+  // masses of a non-nested body depending on the history of changes: they are restored too).
+  for (auto c = st.decided.rbegin(); c != st.decided.rend(); ++c) as.set_target(c->level, c->node, c->from);
+  const auto start = std::chrono::steady_clock::now();
+  const ActivationState::Changes ch = as.update();
+  const ChangeSet cs = apply_changes(body, st.patch, as, ch, t);
+  st.touched_nodes += std::int64_t(cs.stats.nodes);
+  st.touched_tets += std::int64_t(cs.stats.tets);
+  restore_state(body, st);
+  st.apply_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ++st.undone;
+  // The merges are dropped (they lock a bent region into coarser tets); they wait min_dwell again.
+  std::size_t kept = 0;
+  for (const TargetChange& c : st.decided) {
+    if (c.kind != TargetChange::merge) {
+      st.decided[kept++] = c;
+      continue;
+    }
+    --st.merges;
+    ++st.deferred_merges;
+    st.calm_since[std::size_t(c.level)][std::size_t(c.node)] = t;  // calm, but min_dwell again
+  }
+  st.decided.resize(kept);
+  st.undoable = false;
+  for (const TargetChange& c : st.decided) as.set_target(c.level, c.node, c.to);
+  if (st.decided.empty() || !apply_targets(body, t)) {
+    st.undoable = false;
+    --st.changes;
+    return false;
+  }
+  return true;
+}
+
+// Re-activates from the targets as they are now, patches the body's arrays and carries the state
+// over to the nodes that change (the field taken before the decision, in st.scratch). Returns
+// false if the activation did not change.
+template <class T>
+bool apply_targets(SimBody<T>& body, double t) {
+  AdaptiveState& st = *body.adapt;
+  const Hierarchy& h = *st.hierarchy;
+  ActivationState& as = *st.activation;
+  const int levels = int(h.levels());
+  const auto& x = st.scratch.x;
+  const auto& v = st.scratch.v;
   const auto start = std::chrono::steady_clock::now();
   const ActivationState::Changes ch = as.update();
   bool changed = false;
   for (int l = 0; l < levels; ++l)
     changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
   if (!changed) return false;
-  ++st.changes;
   // Patched in place, over the changed nodes and tets only (apply_changes.hpp).
   const ChangeSet cs = apply_changes(body, st.patch, as, ch, t);
   st.touched_nodes += std::int64_t(cs.stats.nodes);
@@ -396,7 +504,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
   // coarse tets (momentum-preserving, and never adding kinetic energy: sampling one finer node's
   // velocity instead gave the coarse node, with its larger mass, whatever mode that node was in,
   // and 100 forced cycles pumped a block's energy up 10^7-fold).
-  const auto& restricted = restricted_now;  // taken before the change, from the field as it was
+  const auto& restricted = st.scratch.restricted;  // taken before the change, from the field as it was
   std::unique_ptr<CarriedField> carried;     // made at the first node that needs it
   for (int l = 0; l < levels; ++l) {
     Level<T>& L = body.levels[std::size_t(l)];
@@ -496,6 +604,30 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
   return true;
 }
 
+template <class T>
+std::shared_ptr<AdaptiveState> make_adaptive_state(std::shared_ptr<const Hierarchy> h, const ActiveDef& active, SimBody<T>& body) {
+  auto a = std::make_shared<AdaptiveState>();
+  a->hierarchy = h;
+  a->activation = std::make_unique<ActivationState>(*h, node_targets(*h, active));
+  a->def = active.adapt;
+  for (const TetMesh& m : h->meshes) {
+    a->calm_since.emplace_back(m.node_count(), -1.0);
+    a->neighbours.push_back(face_neighbours(m));
+    double sum = 0;
+    for (const Tet& t : m.tets)
+      for (int e = 0; e < 3; ++e) {
+        const Vec3d p = m.point(std::size_t(t[std::size_t(e)])), q = m.point(std::size_t(t[std::size_t(e) + 1]));
+        sum += std::sqrt((p[0] - q[0]) * (p[0] - q[0]) + (p[1] - q[1]) * (p[1] - q[1]) + (p[2] - q[2]) * (p[2] - q[2]));
+      }
+    a->edge.push_back(sum / (3.0 * double(m.tet_count())));
+  }
+  a->patch = make_patch_state(body, *h);
+  size_adapt_scratch(*a);
+  return a;
+}
+template std::shared_ptr<AdaptiveState> make_adaptive_state<float>(std::shared_ptr<const Hierarchy>, const ActiveDef&, SimBody<float>&);
+template std::shared_ptr<AdaptiveState> make_adaptive_state<double>(std::shared_ptr<const Hierarchy>, const ActiveDef&, SimBody<double>&);
+
 void size_adapt_scratch(AdaptiveState& st) {
   const Hierarchy& h = *st.hierarchy;
   const std::size_t levels = h.levels();
@@ -544,6 +676,8 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
   return nb;
 }
 
+template bool undo_change<float>(SimBody<float>&, double);
+template bool undo_change<double>(SimBody<double>&, double);
 template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&, const std::function<void()>&);
 template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&, const std::function<void()>&);
 

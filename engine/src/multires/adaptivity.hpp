@@ -24,6 +24,19 @@ namespace pliant::detail {
 template <class T>
 struct SimBody;
 
+// One target change of a decision, as AdaptiveState::decided keeps it for an undo.
+struct TargetChange {
+  enum Kind : std::uint8_t {
+    split,   // the measure, a near shape, or a refined region around the node asked for it
+    merge,   // its children stayed calm for min_dwell
+    command  // World::force_level or a lowered cap: never undone
+  };
+  std::int32_t node;
+  std::int16_t level;
+  std::int8_t from, to;  // its target before and after
+  Kind kind;
+};
+
 struct AdaptiveState {
   std::shared_ptr<const Hierarchy> hierarchy;  // outlives `activation`, which refers to it
   std::unique_ptr<ActivationState> activation;
@@ -45,6 +58,12 @@ struct AdaptiveState {
   double check_max_seconds = 0;                // the longest decision point
   std::int64_t touched_nodes = 0, touched_tets = 0;  // work of the applies so far (PatchStats summed)
   PatchState patch;                            // what the applies keep between changes (make_patch_state at build)
+  // Undoing a change that adds more energy than the body's motion can give back (undo_change).
+  std::vector<TargetChange> decided;           // the last decision's target changes, in decision order
+  bool undoable = false;                       // the last change can be undone: it merged, no command is among
+                                               // its changes, and the state before it is in scratch.before
+  std::int64_t undone = 0;                     // changes undone (applied again without their merges)
+  std::int64_t deferred_merges = 0;            // merges those undos dropped
   // What a decision computes, kept from one decision to the next so that a decision allocates
   // nothing once the body's arrays are sized (a fresh 0.5 MB of field on the 50k-tet organ was
   // page faults at every decision; adapt_body sizes these on first use).
@@ -53,6 +72,13 @@ struct AdaptiveState {
     std::vector<std::array<double, 9>> F;                         // per tet of one level: F, written for stepped tets
     std::vector<std::vector<double>> measure;                     // per level but the finest: per node
     std::vector<std::vector<std::array<double, 7>>> restricted;   // per level but the finest (restrict_field)
+    // The state the last undoable change started from, per level: the bytes of x, v (3 arrays
+    // each), mass and inv_mass of every node, one after the other (8 x node_count x sizeof(T)),
+    // and what of the PatchState is a running value rather than a function of the activation.
+    std::vector<std::vector<unsigned char>> before;
+    double raw_total = 0;
+    std::size_t touched_since = 0;
+    std::int64_t renormalisations = 0;
   } scratch;
 };
 
@@ -64,6 +90,12 @@ struct AdaptiveState {
 template <class T>
 void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& h, const std::vector<const TetMesh*>& meshes,
                       double time);
+
+// The adaptive state of a multilevel body just built from `h` (build_multilevel_body, whose full
+// apply make_patch_state starts from): its activation from `active`'s targets, the face neighbours
+// and mean edges of every level, the calm and retry times, the patch state, the sized scratch.
+template <class T>
+std::shared_ptr<AdaptiveState> make_adaptive_state(std::shared_ptr<const Hierarchy> h, const ActiveDef& active, SimBody<T>& body);
 
 // Sizes (and so touches) the decision scratch for the hierarchy's levels, when the body is built:
 // the first decision of a real-time run would otherwise fault in its pages (1.8 ms on the 50k-tet organ).
@@ -92,5 +124,14 @@ struct NearShape {
 template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near = {},
                 const std::function<void()>& before_change = {});
+
+// Undoes the last change adapt_body applied (it must be `undoable`): the activation and every
+// node's position, velocity and mass are made what they were before it, to the bit, and it is
+// applied again without its merges (their nodes, calm, wait min_dwell again); its splits stay, so
+// that refinement is never refused. Returns true if something is applied again (its state carried
+// over as adapt_body does), false if the body is as it was before the decision.
+// For Simulation::step: a change whose added energy the body's motion cannot give back.
+template <class T>
+bool undo_change(SimBody<T>& body, double t);
 
 }  // namespace pliant::detail

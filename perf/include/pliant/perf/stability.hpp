@@ -191,9 +191,10 @@ struct StressScene {
   std::string message;
   std::int64_t steps = 0;
   // Adaptive multiresolution scenes: node splits and merges (World::adapt_stats), decisions that
-  // changed what is stepped, and the worst relative error of the body's mass over the run.
+  // changed what is stepped, changes undone (their added energy more than the motion could give
+  // back: World::AdaptStats::undone), and the worst relative error of the body's mass over the run.
   bool adaptive = false;
-  std::int64_t splits = 0, merges = 0, changes = 0;
+  std::int64_t splits = 0, merges = 0, changes = 0, undone = 0;
   double mass_error = 0;
   int threads = 1;
   std::uint64_t hash = 0;
@@ -203,7 +204,7 @@ struct StressScene {
 struct StressReport {
   double wall_s = 0;
   std::int64_t scenes = 0, steps = 0, failures = 0, repeats = 0, repeat_mismatches = 0;
-  std::int64_t adaptive_scenes = 0, adaptive_split_and_merged = 0, splits = 0, merges = 0;
+  std::int64_t adaptive_scenes = 0, adaptive_split_and_merged = 0, splits = 0, merges = 0, undone = 0;
   double max_mass_error = 0;  // relative, over the adaptive scenes
   std::size_t rss_start = 0, rss_baseline = 0, rss_peak = 0, rss_end = 0;  // bytes
   double rss_drift = 0;           // bytes, end (median of last samples) - baseline (after warm-up)
