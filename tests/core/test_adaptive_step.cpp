@@ -97,6 +97,41 @@ TEST(AdaptiveStep, OrdinaryDeformationRunsBitForBitAsWithout) {
   }
 }
 
+TEST(AdaptiveStep, AnAdaptiveBodyChangedWhileSubSteppedKeepsItsSubSteps) {
+  // A collapsing soft cantilever of two adaptive levels: the monitor sub-steps while its elements
+  // stiffen (n sub-steps: every level steps n times shorter), and the body splits meanwhile. Each
+  // change of resolution prepares the levels' periods again; prepared for the sub-step's tick, they
+  // grew with the sub-steps (2/1, then 4/2, then 8/4 at 4 sub-steps), so every level stepped as
+  // long as without sub-steps: the monitor's protection was lost, and once the sub-steps relaxed
+  // every level stepped beyond its stable bound (the 50k-tet organ's coarsest level at 444 us
+  // against 296, seen in a real-time run). A level's period must be that of the step's own tick
+  // (auto dt: one sub-step), whatever the sub-steps were at the last change.
+  WorldDef wd;
+  World w(wd);
+  BodyDef def = cantilever(ForceModel::stvk, 100);
+  def.mesh.cells = {8, 2, 2};
+  def.multiresolution.levels = 2;
+  def.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  const BodyId b = w.add_body(def);
+  std::int64_t changes_while_substepped = 0;
+  double worst = 0;
+  for (int i = 0; i < 400; ++i) {
+    const std::int64_t before = w.adapt_stats(b).changes;
+    w.step();
+    if (w.substeps() > 1) changes_while_substepped += w.adapt_stats(b).changes - before;
+    for (int l = 0; l < w.level_count(b); ++l) {
+      const LevelInfo info = w.level_info(b, l);
+      worst = std::max(worst, double(info.period) * w.dt() / info.stable_dt);
+    }
+  }
+  std::printf("%lld changes while sub-stepped (up to %d sub-steps); largest period x tick: %.3g x the level's stable step\n",
+              static_cast<long long>(changes_while_substepped), w.max_substeps(), worst);
+  EXPECT_GT(changes_while_substepped, 0);  // the case happened (4 changes, up to 6 sub-steps, measured;
+                                           // before the fix it diverged at its 16th step)
+  EXPECT_GT(w.max_substeps(), 1);
+  EXPECT_LE(worst, 1.0 + 1e-12);
+}
+
 TEST(AdaptiveStep, SceneKeyAndSummary) {
   const SceneDef off = parse_scene(R"({"duration": 0.01, "time_step": {"adapt": false},
     "bodies": [{"name": "b", "mesh": {"box": {"min": [0,0,0], "max": [0.1,0.02,0.02], "cells": [4,1,1]}}}]})",

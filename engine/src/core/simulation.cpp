@@ -56,6 +56,7 @@ void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
 
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
+  period_tick_ = tick_dt;
   jobs_.clear();
   job_state_.clear();
   job_of_body_.clear();
@@ -523,7 +524,11 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     adapted = true;
     relocate_probes(int(b));
   }
-  if (adapted) prepare(h);  // stepped runs and ghosts changed: the jobs' contexts follow (allocates)
+  // Stepped runs and ghosts changed: the jobs' contexts follow (allocates). With the periods of the
+  // step's own tick, not of this tick h: while the deformation monitor sub-steps, h is a fraction
+  // of it, and periods made for h grew with the sub-steps, so every level stepped as long as
+  // without them (and beyond its stable step once they relaxed).
+  if (adapted) prepare(period_tick_);
   return true;
 }
 

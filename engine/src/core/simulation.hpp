@@ -232,9 +232,11 @@ class Simulation {
 
   // Builds the jobs (one per level of every body), their periods for fine ticks of `tick_dt` (s)
   // (levels of a multiresolution body: level_period of their stable step; single-level bodies: 1)
-  // and every kernel context. Call after bodies or the step change; the tick count restarts
-  // windows only if `reset_tick`.
+  // and every kernel context. Call after bodies or the step change, with the tick of the step as
+  // chosen (World: dt / its base sub-steps): when the deformation monitor sub-steps, the ticks
+  // shrink and every level's step with them.
   void prepare(double tick_dt);
+  double period_tick() const { return period_tick_; }  // s: the tick the periods were made for
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
   // window starts), element passes (every level's due slice), gathers, impulses to the coarser
@@ -272,6 +274,7 @@ class Simulation {
   // True if some level's model can stiffen beyond its rest state (stvk, corotational, springs).
   bool can_stiffen() const;
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
+  double period_tick_ = 0;              // s: prepare()'s tick_dt (a change of resolution prepares again with it)
   mutable std::vector<std::int32_t> energy_ids;  // add_elastic_energy: a listed level's stepped tets (grows, stays)
   // Sizes scratch for n tets. Never shrinks: the levels of a body take it in turn, and resizing
   // from a coarse level's size back to the finest's zeroed 0.4 MB at every deformation check of the
