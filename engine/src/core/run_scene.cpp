@@ -374,9 +374,13 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   // The real-time controller (adaptive bodies only): over windows of kControlWindow simulated
   // seconds, the wall time spent stepping (waits left out) against the window. It moves the adaptive
   // bodies along a ladder of settings, coarse to fine: rung 0 = every body capped at its level 0
-  // (World::set_adapt_cap) with its thresholds x kMaxScale (World::set_adapt_scale); rung c = the cap
-  // at level c; above the finest level's rung, the thresholds come down by kFactor per rung to the
-  // scene's own (x1). It decides where resolution goes, never what a step computes.
+  // (World::set_adapt_cap); then for each cap c = 1, 2, ... the thresholds x kMaxScale
+  // (World::set_adapt_scale), coming down by kFactor per rung to x kCapScale (below the finest cap)
+  // or to the scene's own (x1, at the finest cap). The rungs of high thresholds at a cap keep a
+  // level's region to what refines by distance (around a tool) and to the strongest jumps: a body
+  // whose region at x4 grows past the frame (the 50k-tet organ sagging under a sliding tool: 900
+  // middle-level tets, 1.2 ms frames, at 2.7 s) keeps its middle level at x8 or x16 rather than
+  // dropping to its coarsest. It decides where resolution goes, never what a step computes.
   //  - It starts at rung 0: a guaranteed rate cannot begin by overrunning (the 50k-tet organ, all
   //    fine, took 2 s of wall time for its first 0.1 s before the controller had caught up).
   //  - A window is busy if it used more than kBusy of its time, if simulated time is behind the
@@ -389,7 +393,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   //    region refines over successive decisions, so that the load rises by steps the controller
   //    sees, and no frame absorbs a whole region's split (one split applies in ~0.2 ms on the
   //    50k-tet organ; lifting its cap from level 0 to 1 split ~40 nodes at once, a 2-4 ms frame).
-  constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 4;
+  constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 16, kCapScale = 4;
   constexpr int kSplitsPerDecision = 2;
   std::vector<BodyId> adaptive_bodies;
   for (std::size_t b = 0; b < world.body_count(); ++b)
@@ -405,11 +409,16 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   std::int64_t window_misses = 0;
   int finest = 0;
   for (BodyId b : adaptive_bodies) finest = std::max(finest, world.level_count(b) - 1);
-  int scale_rungs = 0;  // rungs above the finest cap: kMaxScale / kFactor^k for k = 1.. down to 1
-  for (double x = kMaxScale; x > 1; x /= kFactor) ++scale_rungs;
-  const int top_rung = finest + scale_rungs;
-  auto cap_of = [&](int r) { return std::min(r, finest); };
-  auto scale_of = [&](int r) { return r <= finest ? kMaxScale : std::max(1.0, kMaxScale / std::pow(kFactor, r - finest)); };
+  struct Rung {
+    int cap;
+    double scale;
+  };
+  std::vector<Rung> ladder{{0, kMaxScale}};
+  for (int c = 1; c <= finest; ++c)
+    for (double x = kMaxScale; x >= (c < finest ? kCapScale : 1.0); x /= kFactor) ladder.push_back({c, x});
+  const int top_rung = int(ladder.size()) - 1;
+  auto cap_of = [&](int r) { return ladder[std::size_t(r)].cap; };
+  auto scale_of = [&](int r) { return ladder[std::size_t(r)].scale; };
   int rung = adaptive_bodies.empty() ? top_rung : 0;
   double scale = scale_of(rung);
   int cap = cap_of(rung);
