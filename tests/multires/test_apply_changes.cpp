@@ -359,7 +359,8 @@ struct UndoOutcome {
 
 template <class A>
 bool same_bits(const A& got, const A& want) {
-  return got.size() == want.size() && std::memcmp(got.data(), want.data(), got.size() * sizeof(got[0])) == 0;
+  // (memcmp of an empty array's null data() is undefined, even for 0 bytes: UBSan says so.)
+  return got.size() == want.size() && (got.empty() || std::memcmp(got.data(), want.data(), got.size() * sizeof(got[0])) == 0);
 }
 
 UndoOutcome undo_a_change(BodyDef def, bool and_split) {

@@ -161,6 +161,7 @@ void save_state(SimBody<T>& body, AdaptiveState& st) {
   for (std::size_t l = 0; l < body.levels.size(); ++l) {
     const std::size_t bytes = body.levels[l].node_count * sizeof(T);
     before[l].resize(8 * bytes);
+    if (bytes == 0) continue;  // (memcpy from an empty array's null data() is undefined)
     std::size_t at = 0;
     for (const AlignedVector<T>* a : undo_arrays(body.levels[l])) {
       std::memcpy(before[l].data() + at, a->data(), bytes);
@@ -176,6 +177,7 @@ template <class T>
 void restore_state(SimBody<T>& body, AdaptiveState& st) {
   for (std::size_t l = 0; l < body.levels.size(); ++l) {
     const std::size_t bytes = body.levels[l].node_count * sizeof(T);
+    if (bytes == 0) continue;
     std::size_t at = 0;
     for (AlignedVector<T>* a : undo_arrays(body.levels[l])) {
       std::memcpy(a->data(), st.scratch.before[l].data() + at, bytes);
