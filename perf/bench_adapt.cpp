@@ -126,7 +126,7 @@ void run_local(benchmark::State& state, const BodyDef& def, bool in_place) {
   const Hierarchy h = link_levels(build_level_meshes(def, std::move(mesh)));
   detail::SimBody<double> body = detail::build_multilevel_body<double>(h, def, 0.5, exec);
   detail::ActivationState as(h, detail::node_targets(h, def.multiresolution.active));
-  detail::PatchState ps = detail::make_patch_state(body, h);
+  detail::PatchState ps = detail::make_patch_state(body, h, as);
   const TetMesh& coarse = h.meshes[0];
   Vec3d lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
   for (std::size_t i = 0; i < coarse.node_count(); ++i)

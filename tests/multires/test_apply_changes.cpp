@@ -69,7 +69,7 @@ struct Adaptive {
   explicit Adaptive(const BodyDef& def) : h(link_levels(build_level_meshes(def, build_mesh(def.mesh)))) {
     body = build_multilevel_body<double>(h, def, 0.5, exec);
     as = std::make_unique<ActivationState>(h, node_targets(h, def.multiresolution.active));
-    ps = make_patch_state(body, h);
+    ps = make_patch_state(body, h, *as);
   }
   // The body as the full apply makes it from the activation's snapshot now.
   SimBody<double> full(double t) const {
@@ -206,7 +206,7 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
     worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
     // Own masses and region counts kept by the patch against those made from the full apply.
     SimBody<double> full = a.full(t);
-    const PatchState fresh = make_patch_state(full, a.h);
+    const PatchState fresh = make_patch_state(full, a.h, *a.as);
     for (std::size_t l = 0; l < std::size_t(n); ++l) EXPECT_TRUE(same(a.ps.own_mass[l], fresh.own_mass[l])) << c << " " << l;
     EXPECT_EQ(a.ps.fixed_count, fresh.fixed_count);
     EXPECT_EQ(a.ps.prescribed_count, fresh.prescribed_count);

@@ -5,11 +5,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
 #include <numeric>
 
 #include <fmt/format.h>
 
 #include "../../engine/src/multires/activation.hpp"
+#include "../../engine/src/multires/tet_locator.hpp"
 #include "pliant/hierarchy.hpp"
 #include "pliant/world.hpp"
 
@@ -190,6 +192,10 @@ TEST(Activation, NonNestedOrganLevelsStayOnePiece) {
       for (double z = -0.02; z <= 0.021; z += 0.02) centres.push_back({x, y, z});
   int bad = 0;
   double worst_volume = 0;  // relative error of the stepped tets' volume against the body's
+  double worst_gap = 0;     // share of the body's volume no stepped tet covers
+  double worst_weighed = 0;  // the same as worst_volume, each tet counted for its mass share
+  std::vector<std::unique_ptr<detail::TetLocator>> locators;
+  for (std::size_t l = 0; l < 3; ++l) locators.push_back(std::make_unique<detail::TetLocator>(h.meshes[l]));
   double fine_volume = 0;
   for (std::size_t t = 0; t < h.meshes[2].tet_count(); ++t) fine_volume += tet_volume(h.meshes[2], t);
   for (std::size_t l = 0; l < 2; ++l) {  // every level has the body's volume (scaled to it)
@@ -209,20 +215,55 @@ TEST(Activation, NonNestedOrganLevelsStayOnePiece) {
     a.regions = {fine};
     const detail::Activation act = detail::activate(h, a);
     if (pieces(h, act) != 1) ++bad;
-    double stepped = 0;
+    double stepped = 0, weighed = 0;
     for (std::size_t l = 0; l < 3; ++l)
       for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t)
-        if (act.levels[l].stepped[t]) stepped += tet_volume(h.meshes[l], t);
+        if (act.levels[l].stepped[t]) {
+          stepped += tet_volume(h.meshes[l], t);
+          weighed += tet_volume(h.meshes[l], t) * act.levels[l].share[t] / detail::kMassShares;
+        }
     worst_volume = std::max(worst_volume, std::abs(stepped / fine_volume - 1));
+    worst_weighed = std::max(worst_weighed, std::abs(weighed / fine_volume - 1));
+    // The gaps, sampled at 5 points of every finest tet (its centroid and next to its corners,
+    // each standing for a fifth of its volume): a point no level's stepped tet contains.
+    double gap = 0;
+    const TetMesh& m = h.meshes[2];
+    for (std::size_t t = 0; t < m.tet_count(); ++t) {
+      Vec3d c{0, 0, 0};
+      for (int a = 0; a < 4; ++a)
+        for (int k = 0; k < 3; ++k) c[std::size_t(k)] += 0.25 * m.point(std::size_t(m.tets[t][std::size_t(a)]))[std::size_t(k)];
+      for (int a = -1; a < 4; ++a) {
+        Vec3d q = c;
+        if (a >= 0)
+          for (int k = 0; k < 3; ++k) {
+            const double corner = m.point(std::size_t(m.tets[t][std::size_t(a)]))[std::size_t(k)];
+            q[std::size_t(k)] = corner + 0.25 * (c[std::size_t(k)] - corner);
+          }
+        bool in_every_level = true;  // the levels' surfaces differ: a point outside one is no gap
+        for (std::size_t l = 0; l < 2; ++l) in_every_level = in_every_level && locators[l]->locate(q).outside == 0;
+        bool inside = false;
+        for (std::size_t l = 0; l < 3 && !inside; ++l) inside = locators[l]->containing(q, act.levels[l].stepped).tet >= 0;
+        if (in_every_level && !inside) gap += 0.2 * tet_volume(m, t);
+      }
+    }
+    worst_gap = std::max(worst_gap, gap / fine_volume);
     EXPECT_EQ(pieces(h, act), 1u) << centre[0] << " " << centre[1] << " " << centre[2];
   }
   // Measured: 0 of 45; with the nodes of slivers left untied (reach 0), 5 of 45 had a stepped part
   // floating free.
   EXPECT_EQ(bad, 0);
-  // Non-nested levels tile the body up to slivers at the interfaces, so a split body's mass (that of
-  // its stepped tets) is the body's to within this; nested boxes: exact (StaticSplitTilesTheBox...).
-  std::printf("stepped volume within %.3g of the body's over %zu splits\n", worst_volume, centres.size());
-  EXPECT_LT(worst_volume, 0.05);
+  // Non-nested levels overlap by up to one finer tet at their interfaces (an active node has all its
+  // tets, activation.hpp) and leave only small gaps; nested boxes tile exactly
+  // (StaticSplitTilesTheBox...). Measured: stepped volume up to 14.3% over the body's, gaps up to
+  // 1.3% of it. With a tet present by its centroid alone: 2.2% and 4.7%, the gaps at active nodes,
+  // where the two sides parted like a hinge (NonNestedBarSplitInPartSagsBetweenItsLevels).
+  std::printf("stepped volume within %.3g of the body's over %zu splits (weighed by the mass shares: %.3g), gaps at "
+              "most %.3g of it\n", worst_volume, centres.size(), worst_weighed, worst_gap);
+  EXPECT_LT(worst_volume, 0.16);
+  EXPECT_LT(worst_gap, 0.02);
+  // The overlap is not weighed twice: the masses the stepped tets give are the body's to within
+  // this before the full apply scales them (measured 3.9%; 14.3% if every stepped tet weighed whole).
+  EXPECT_LT(worst_weighed, 0.05);
 }
 
 }  // namespace

@@ -2,7 +2,7 @@
 // fine, independent of each other (non-nested: no vertex is shared), and what links them at rest:
 // where each node of a level lies in the neighbouring levels (tet + barycentric weights), each
 // node's parent (nearest node one level coarser) and children (the nodes one level finer in its
-// Voronoi zone) with the ring of finer tets around them, and each tet's parent tet. Built once when
+// Voronoi zone) with the ring of finer tets around them, and each tet's parent tets. Built once when
 // a body is added; docs/multiresolution.md describes how the engine uses it.
 #pragma once
 #include <array>
@@ -33,6 +33,13 @@ struct LevelLinks {
   std::vector<std::int32_t> child_offsets, children;
   std::vector<std::int32_t> ring_offsets, ring;
   std::vector<std::int32_t> tet_parent;  // per tet: the tet of level l - 1 holding its centroid (empty at level 0)
+  // Per tet (empty at level 0): for each corner, the tet of level l - 1 holding the point of the tet
+  // next to that corner (an eighth of the way to the centroid). A nested tet finds its parent four
+  // times; a tet of a non-nested level that straddles a face of the coarser mesh finds the tets on
+  // both sides.
+  std::vector<std::array<std::int32_t, 4>> tet_corner_parent;
+  // Per tet (CSR, empty at level 0): its parent and corner parents, ascending, each once.
+  std::vector<std::int32_t> tet_parent_offsets, tet_parents;
 };
 
 struct Hierarchy {

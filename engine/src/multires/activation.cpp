@@ -136,6 +136,20 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
 
 namespace {
 
+// The same, through marks (all 0 before and after): each value once, then a sort of what is left,
+// which is much shorter than v when the boxes and neighbour lists that fill it overlap.
+void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>& mark) {
+  std::size_t out = 0;
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (!mark[std::size_t(v[i])]) {
+      mark[std::size_t(v[i])] = 1;
+      v[out++] = v[i];
+    }
+  v.resize(out);
+  for (auto x : v) mark[std::size_t(x)] = 0;
+  std::sort(v.begin(), v.end());
+}
+
 void sort_unique(std::vector<std::int32_t>& v) {
   std::sort(v.begin(), v.end());
   v.erase(std::unique(v.begin(), v.end()), v.end());
@@ -159,6 +173,10 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
   present_.resize(n);
   refined_.resize(n);
   stepped_.resize(n);
+  share_.resize(n);
+  covered_memo_.resize(n);
+  node_mark_.resize(n);
+  tet_mark_.resize(n);
   stepped_incident_.resize(n);
   role_.resize(n);
   sources_.resize(n);
@@ -168,6 +186,9 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
   for (std::size_t l = 0; l < n; ++l) {
     const TetMesh& m = h.meshes[l];
     tet_locators_[l] = std::make_unique<TetLocator>(m);
+    covered_memo_[l].assign(m.node_count(), 0);
+    node_mark_[l].assign(m.node_count(), 0);
+    tet_mark_[l].assign(m.tet_count(), 0);
     node_locators_[l] = std::make_unique<NodeLocator>(m);
     // Non-nested meshes leave slivers between the stepped tets of neighbouring levels; a node of a
     // finer level this close to a coarser stepped tet (a quarter of its own level's mean edge) is
@@ -205,17 +226,21 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
         }
       }
   }
-  for (std::size_t l = 0; l + 1 < n; ++l) {  // tet -> the finer tets whose parent it is
-    const auto& parent = h.links[l + 1].tet_parent;
+  straddling_.assign(n, 0);
+  for (std::size_t l = 1; l < n; ++l)
+    for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t) straddling_[l] += straddles(l, std::int32_t(t));
+  for (std::size_t l = 0; l + 1 < n; ++l) {  // tet -> the finer tets that reach into it
+    const auto& poff = h.links[l + 1].tet_parent_offsets;
+    const auto& parents = h.links[l + 1].tet_parents;
     auto& off = child_offsets_[l];
     off.assign(h.meshes[l].tet_count() + 1, 0);
-    for (auto p : parent)
-      if (p >= 0) ++off[std::size_t(p) + 1];
+    for (auto p : parents) ++off[std::size_t(p) + 1];
     for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t) off[t + 1] += off[t];
     child_list_[l].resize(std::size_t(off.back()));
     std::vector<std::int32_t> cursor(off.begin(), off.end() - 1);
-    for (std::size_t c = 0; c < parent.size(); ++c)
-      if (parent[c] >= 0) child_list_[l][std::size_t(cursor[std::size_t(parent[c])]++)] = std::int32_t(c);
+    for (std::size_t c = 0; c + 1 < poff.size(); ++c)
+      for (auto e = poff[c]; e < poff[c + 1]; ++e)
+        child_list_[l][std::size_t(cursor[std::size_t(parents[std::size_t(e)])]++)] = std::int32_t(c);
   }
 
   // The whole body, as for a static split.
@@ -226,17 +251,15 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
     pr.assign(m.tet_count(), 0);
     rf.assign(m.tet_count(), 0);
     for (std::size_t t = 0; t < m.tet_count(); ++t) {
-      if (l == 0) {
-        pr[t] = 1;
-      } else {
-        const std::int32_t p = h.links[l].tet_parent[t];
-        pr[t] = p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)];
-      }
+      pr[t] = l == 0 ? 1 : present_from_parents(l, std::int32_t(t));
       if (l + 1 < n)
         for (int c = 0; c < 4; ++c) rf[t] |= std::uint8_t(targets_[l][std::size_t(m.tets[t][std::size_t(c)])] > int(l));
     }
+    forget_covered(int(l));
     if (l + 1 < n) refine_dangling(m, pr, rf);
     stepped_[l].resize(m.tet_count());
+    share_[l].resize(m.tet_count());
+    for (std::size_t t = 0; t < m.tet_count(); ++t) share_[l][t] = share_from_parents(l, std::int32_t(t));
     stepped_incident_[l].assign(m.node_count(), 0);
     stepped_count_.resize(n);
     stepped_count_[l] = 0;
@@ -261,6 +284,50 @@ std::pair<const std::int32_t*, const std::int32_t*> ActivationState::node_tets(i
   const auto& off = node_tet_offsets_[std::size_t(l)];
   const std::int32_t* base = node_tet_list_[std::size_t(l)].data();
   return {base + off[std::size_t(node)], base + off[std::size_t(node) + 1]};
+}
+
+bool ActivationState::straddles(std::size_t l, std::int32_t t) const {
+  const LevelLinks& lk = h_.links[l];
+  return lk.tet_parent_offsets[std::size_t(t) + 1] - lk.tet_parent_offsets[std::size_t(t)] > 1;
+}
+
+std::uint8_t ActivationState::present_from_parents(std::size_t l, std::int32_t t) const {
+  const LevelLinks& lk = h_.links[l];
+  auto split = [&](std::int32_t p) { return p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)]; };
+  if (split(lk.tet_parent[std::size_t(t)])) return 1;
+  const Tet& tet = h_.meshes[l].tets[std::size_t(t)];
+  for (int a = 0; a < 4; ++a)
+    if (split(lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]) && !covered(int(l), tet[std::size_t(a)])) return 1;
+  return 0;
+}
+
+std::uint8_t ActivationState::share_from_parents(std::size_t l, std::int32_t t) const {
+  if (l == 0) return kMassShares;
+  const LevelLinks& lk = h_.links[l];
+  auto split = [&](std::int32_t p) { return p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)]; };
+  int share = split(lk.tet_parent[std::size_t(t)]);
+  for (int a = 0; a < 4; ++a) share += split(lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]);
+  return std::uint8_t(share);
+}
+
+bool ActivationState::covered(int l, std::int32_t node) const {
+  // Remembered within one evaluation of level l (the coarser stepped sets do not change meanwhile):
+  // a node is a corner of about 20 tets.
+  std::uint8_t& memo = covered_memo_[std::size_t(l)][std::size_t(node)];
+  if (memo == 0) {
+    const Vec3d p = h_.meshes[std::size_t(l)].point(std::size_t(node));
+    bool cov = false;
+    for (int c = 0; c < l && !cov; ++c)
+      cov = tet_locators_[std::size_t(c)]->containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]).tet >= 0;
+    memo = cov ? 1 : 2;
+    covered_memo_set_.push_back(node);
+  }
+  return memo == 1;
+}
+
+void ActivationState::forget_covered(int l) const {
+  for (auto v : covered_memo_set_) covered_memo_[std::size_t(l)][std::size_t(v)] = 0;
+  covered_memo_set_.clear();
 }
 
 void ActivationState::evaluate_node(int l, std::int32_t i, bool& changed) {
@@ -338,6 +405,7 @@ ActivationState::Changes ActivationState::update() {
   Changes ch;
   ch.tets_on.resize(n);
   ch.tets_off.resize(n);
+  ch.tets_reweighed.resize(n);
   ch.nodes.resize(n);
   std::vector<std::vector<std::int32_t>> nodes(n);  // to evaluate, per level
   std::vector<std::int32_t> from_parents;           // tets of this level whose parent changed
@@ -357,7 +425,41 @@ ActivationState::Changes ActivationState::update() {
       cand.insert(cand.end(), b, e);
     }
     dirty_targets_[l].clear();
-    sort_unique(cand);
+    // A tet is also present by its corners that no coarser stepped tet covers (present_from_parents):
+    // where coarser tets started or stopped being stepped, the tets around the nodes they reach.
+    // Only tets that straddle coarser tets can be present that way (none in nested levels).
+    std::vector<std::int32_t>& near = scratch_nodes_;
+    near.clear();
+    if (straddling_[l] > 0)
+      for (std::size_t c = 0; c < l; ++c)
+        for (const auto& [lo, hi] : boxes[c]) {
+          const double r = reach_[l];
+          node_locators_[l]->in_box({lo[0] - r, lo[1] - r, lo[2] - r}, {hi[0] + r, hi[1] + r, hi[2] + r}, near);
+        }
+    {  // each node and tet once (marks, not a sort: coarse tets' boxes hold many finer nodes each)
+      auto& nm = node_mark_[l];
+      auto& tm = tet_mark_[l];
+      std::vector<std::int32_t>& near_tets = scratch_tets_;
+      for (auto node : near) {
+        if (nm[std::size_t(node)]) continue;
+        nm[std::size_t(node)] = 1;
+        auto [b, e] = node_tets(int(l), node);
+        for (; b != e; ++b)
+          if (!tm[std::size_t(*b)] && straddles(l, *b)) {
+            tm[std::size_t(*b)] = 1;
+            near_tets.push_back(*b);
+          }
+      }
+      for (auto node : near) nm[std::size_t(node)] = 0;
+      // Only those whose presence the coverage changes (the coarser levels are final by now).
+      for (auto t : near_tets) {
+        tm[std::size_t(t)] = 0;
+        if (present_from_parents(l, t) != present_[l][std::size_t(t)]) cand.push_back(t);
+      }
+      near_tets.clear();
+      forget_covered(int(l));
+    }
+    sort_unique_marked(cand, tet_mark_[l]);
     // The tets whose refinement rule may give another answer: the candidates and their face
     // neighbours (a dangling tet is one whose neighbours changed).
     std::vector<std::int32_t> region = cand;
@@ -368,7 +470,7 @@ ActivationState::Changes ActivationState::update() {
     // tets): once the refinement that made them dangle is gone they may not dangle any more. The
     // rule's least fixed point is then recomputed from the targets over the whole region.
     if (l + 1 < n) {
-      sort_unique(region);
+      sort_unique_marked(region, tet_mark_[l]);
       std::vector<std::int32_t> stack = region;
       std::vector<std::int32_t> seen = region;
       while (!stack.empty()) {
@@ -385,7 +487,7 @@ ActivationState::Changes ActivationState::update() {
         }
       }
     }
-    sort_unique(region);
+    sort_unique_marked(region, tet_mark_[l]);
     std::vector<std::uint8_t> was_stepped, was_split;
     was_stepped.reserve(region.size());
     was_split.reserve(region.size());
@@ -393,15 +495,13 @@ ActivationState::Changes ActivationState::update() {
       was_stepped.push_back(stepped_[l][std::size_t(t)]);
       was_split.push_back(present_[l][std::size_t(t)] && refined_[l][std::size_t(t)]);
       // Present from the parent, refined from the corners' targets; the dangling rule below.
-      if (l > 0) {
-        const std::int32_t p = h_.links[l].tet_parent[std::size_t(t)];
-        present_[l][std::size_t(t)] = p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)];
-      }
+      if (l > 0) present_[l][std::size_t(t)] = present_from_parents(l, t);
       std::uint8_t rf = 0;
       if (l + 1 < n)
         for (int c = 0; c < 4; ++c) rf |= std::uint8_t(targets_[l][std::size_t(m.tets[std::size_t(t)][std::size_t(c)])] > int(l));
       refined_[l][std::size_t(t)] = rf;
     }
+    forget_covered(int(l));
     if (l + 1 < n) {
       // The rule's cascade may refine tets beyond the region: they join it (stepped before, since
       // they were present and unrefined).
@@ -425,6 +525,11 @@ ActivationState::Changes ActivationState::update() {
       if (split != was_split[k] && l + 1 < n)
         from_parents.insert(from_parents.end(), child_list_[l].begin() + child_offsets_[l][std::size_t(t)],
                             child_list_[l].begin() + child_offsets_[l][std::size_t(t) + 1]);
+      const std::uint8_t share = share_from_parents(l, t);
+      if (share != share_[l][std::size_t(t)]) {
+        share_[l][std::size_t(t)] = share;
+        if (now && was_stepped[k]) ch.tets_reweighed[l].push_back(t);
+      }
       if (now == was_stepped[k]) continue;
       stepped_[l][std::size_t(t)] = now;
       stepped_count_[l] = now ? stepped_count_[l] + 1 : stepped_count_[l] - 1;
@@ -453,7 +558,7 @@ ActivationState::Changes ActivationState::update() {
   // Roles, coarse to fine: a ghost's sources are final before it; a node whose role or sources
   // changed sends the ghosts that read it to be evaluated again.
   for (std::size_t l = 0; l < n; ++l) {
-    sort_unique(nodes[l]);
+    sort_unique_marked(nodes[l], node_mark_[l]);
     ch.nodes_examined += nodes[l].size();
     for (auto v : nodes[l]) {
       bool changed = false;
@@ -497,6 +602,7 @@ Activation ActivationState::snapshot() const {
   for (std::size_t l = 0; l < h_.levels(); ++l) {
     LevelActivation& la = a.levels[l];
     la.stepped = stepped_[l];
+    la.share = share_[l];
     la.role = role_[l];
     la.source_offsets.assign(1, 0);
     for (std::size_t i = 0; i < role_[l].size(); ++i) {

@@ -9,9 +9,12 @@
 //     finer region: the node is split).
 //  2. Stepped tets. A tet of level l is refined when one of its corners targets a finer level; a
 //     level-0 tet is present, a finer tet is present when its parent tet (the coarser tet holding
-//     its centroid) is present and refined. Stepped = present and not refined. The stepped tets of
-//     all levels tile the body: exactly for nested meshes (Kuhn boxes with an even ratio), up to
-//     slivers of the interface otherwise.
+//     its centroid) is present and refined, or when one of its corners is a node no coarser stepped
+//     tet covers (an active node, step 3) and the coarser tet next to that corner is present and
+//     refined: an active node has all its tets. Stepped = present and not refined. The stepped
+//     tets of all levels tile the body exactly for nested meshes (Kuhn boxes with an even ratio);
+//     otherwise they overlap by up to one finer tet at the interfaces, where the centroids alone
+//     left gaps that let the two sides part like a hinge.
 //  3. Roles. A node of a stepped tet is a ghost if a stepped tet of a coarser level covers its rest
 //     position (inside or on its boundary), with the barycentric weights of the coarsest such tet,
 //     its sources made active by composing through ghost corners; otherwise it is active. Ghosts
@@ -38,8 +41,14 @@ struct GhostSource {
   double weight = 0;
 };
 
+// A stepped tet of a non-nested level may overlap coarser stepped tets (step 2): its mass counts
+// for the share of it that lies in refined coarser tets, kMassShares of kMassShares when it all
+// does (always, in nested levels), so that the overlap is not weighed twice.
+inline constexpr int kMassShares = 5;
+
 struct LevelActivation {
   std::vector<std::uint8_t> stepped;  // per tet: 1 if this level steps it
+  std::vector<std::uint8_t> share;    // per tet: its mass share, 0 .. kMassShares (ActivationState::mass_share)
   std::vector<NodeRole> role;         // per node
   std::vector<std::int32_t> ghosts;   // ghost nodes, ascending
   std::vector<std::int32_t> source_offsets;  // per ghost (CSR, ghosts.size() + 1)
@@ -75,6 +84,10 @@ class ActivationState {
   int target(int l, std::int32_t node) const { return targets_[std::size_t(l)][std::size_t(node)]; }
   bool stepped(int l, std::int32_t tet) const { return stepped_[std::size_t(l)][std::size_t(tet)] != 0; }
   const std::vector<std::uint8_t>& stepped_mask(int l) const { return stepped_[std::size_t(l)]; }
+  // The share of tet t's mass it carries (a multiple of 1 / kMassShares; 1 at level 0): of five
+  // points of it (its centroid and one next to each corner), those in a coarser tet that is present
+  // and refined.
+  double mass_share(int l, std::int32_t t) const { return double(share_[std::size_t(l)][std::size_t(t)]) / kMassShares; }
   NodeRole role(int l, std::int32_t node) const { return role_[std::size_t(l)][std::size_t(node)]; }
   const std::vector<GhostSource>& sources(int l, std::int32_t node) const { return sources_[std::size_t(l)][std::size_t(node)]; }
   // The tets of level l around a node (hierarchy numbering).
@@ -82,6 +95,7 @@ class ActivationState {
 
   struct Changes {
     std::vector<std::vector<std::int32_t>> tets_on, tets_off;  // per level: tets that start / stop being stepped
+    std::vector<std::vector<std::int32_t>> tets_reweighed;     // per level: stepped tets whose mass share changed
     std::vector<std::vector<std::int32_t>> nodes;              // per level: nodes whose role or sources changed
     std::size_t tets_examined = 0, nodes_examined = 0;          // the work done (for the cost measurements)
   };
@@ -93,6 +107,15 @@ class ActivationState {
 
  private:
   void refine_rule(int l, std::int32_t t, std::vector<std::int32_t>& refined_now);
+  // Step 2's presence of a tet of level l > 0 (the stepped sets of the coarser levels final).
+  std::uint8_t present_from_parents(std::size_t l, std::int32_t t) const;
+  // Its mass share's numerator (kMassShares at level 0).
+  std::uint8_t share_from_parents(std::size_t l, std::int32_t t) const;
+  // Whether a stepped tet of a coarser level covers the node (it would be a ghost, step 3).
+  bool covered(int l, std::int32_t node) const;
+  void forget_covered(int l) const;
+  // Whether a tet of level l > 0 reaches into more than one coarser tet (never in nested levels).
+  bool straddles(std::size_t l, std::int32_t t) const;
   void evaluate_node(int l, std::int32_t node, bool& changed);
 
   const Hierarchy& h_;
@@ -104,6 +127,7 @@ class ActivationState {
   std::vector<std::vector<std::array<std::int32_t, 4>>> neighbours_;          // per level, face neighbours (-1: boundary)
   std::vector<std::vector<int>> targets_;
   std::vector<std::vector<std::uint8_t>> present_, refined_, stepped_;
+  std::vector<std::vector<std::uint8_t>> share_;  // per level, per tet: mass share (0 .. kMassShares)
   std::vector<std::vector<std::int32_t>> stepped_incident_;  // per level, per node: stepped tets around it
   std::vector<std::size_t> stepped_count_;                   // per level: its stepped tets
   std::vector<std::vector<NodeRole>> role_;
@@ -113,6 +137,13 @@ class ActivationState {
   std::vector<std::vector<std::array<std::int32_t, 5>>> reads_;  // per ghost: level and corners of the tet it reads
   std::vector<std::vector<std::int32_t>> dirty_targets_;  // per level
   std::vector<GhostSource> acc_;                          // evaluate_node's scratch (its sources)
+  std::vector<std::int32_t> scratch_nodes_, scratch_tets_;  // update()'s scratch
+  std::vector<std::size_t> straddling_;                   // per level: its tets that straddle coarser ones
+  // covered()'s answers within one level's evaluation (0: not asked, 1: covered, 2: not), and the
+  // nodes asked (forget_covered() clears them); marks that dedupe update()'s candidates.
+  mutable std::vector<std::vector<std::uint8_t>> covered_memo_;
+  mutable std::vector<std::int32_t> covered_memo_set_;
+  std::vector<std::vector<std::uint8_t>> node_mark_, tet_mark_;
 };
 
 }  // namespace pliant::detail

@@ -486,7 +486,8 @@ bool apply_targets(SimBody<T>& body, double t) {
   const ActivationState::Changes ch = as.update();
   bool changed = false;
   for (int l = 0; l < levels; ++l)
-    changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
+    changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() ||
+               !ch.tets_reweighed[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
   if (!changed) return false;
   // Patched in place, over the changed nodes and tets only (apply_changes.hpp).
   const ChangeSet cs = apply_changes(body, st.patch, as, ch, t);
@@ -628,7 +629,7 @@ std::shared_ptr<AdaptiveState> make_adaptive_state(std::shared_ptr<const Hierarc
       }
     a->edge.push_back(sum / (3.0 * double(m.tet_count())));
   }
-  a->patch = make_patch_state(body, *h);
+  a->patch = make_patch_state(body, *h, *a->activation);
   size_adapt_scratch(*a);
   return a;
 }

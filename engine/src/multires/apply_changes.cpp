@@ -2,6 +2,7 @@
 #include "apply_changes.hpp"
 
 #include <algorithm>
+#include <initializer_list>
 #include <cmath>
 #include <fmt/format.h>
 
@@ -158,7 +159,7 @@ std::uint8_t ChangeSet::was(int l, std::int32_t node, std::uint8_t now) const {
 }
 
 template <class T>
-PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
+PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h, const ActivationState& as) {
   const std::size_t n = h.levels();
   const BodyDef& def = body.def;
   PatchState ps;
@@ -184,7 +185,8 @@ PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h) {
     own.assign(m.node_count(), 0.0);
     for (std::size_t t = 0; t < m.tet_count(); ++t) {
       if (on[t]) {
-        for (int a = 0; a < 4; ++a) own[std::size_t(m.tets[t][std::size_t(a)])] += q[t];
+        const double share = q[t] * as.mass_share(int(l), std::int32_t(t));
+        for (int a = 0; a < 4; ++a) own[std::size_t(m.tets[t][std::size_t(a)])] += share;
       } else {  // never written by an element pass from now on, and summed by the gather
         for (auto& c : L.corner_force) c[t] = T(0);
       }
@@ -248,11 +250,11 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
     std::sort(on[l].begin(), on[l].end());
     std::sort(off[l].begin(), off[l].end());
     const Level<T>& L = body.levels[l];
-    for (const auto* list : {&on[l], &off[l]})
+    for (const std::vector<std::int32_t>* list : std::initializer_list<const std::vector<std::int32_t>*>{&on[l], &off[l], &ch.tets_reweighed[l]})
       for (auto t : *list)
         for (int a = 0; a < 4; ++a) own_changed[l].push_back(L.tet[a][std::size_t(t)]);
     sort_unique_marked(own_changed[l], ps.mark[l]);
-    stats.tets += on[l].size() + off[l].size();
+    stats.tets += on[l].size() + off[l].size() + ch.tets_reweighed[l].size();
   }
   auto& touched = cs.mass_changed;
   for (std::size_t l = 0; l < n; ++l) {
@@ -312,7 +314,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
       double m = 0;
       const auto [b, e] = as.node_tets(int(l), v);
       for (const std::int32_t* t = b; t != e; ++t)
-        if (as.stepped(int(l), *t)) m += ps.quarter_mass[l][std::size_t(*t)];
+        if (as.stepped(int(l), *t)) m += ps.quarter_mass[l][std::size_t(*t)] * as.mass_share(int(l), *t);
       ps.own_mass[l][std::size_t(v)] = m;
       stats.tets += std::size_t(e - b);
     }
@@ -571,8 +573,8 @@ std::size_t keep_momentum(SimBody<T>& body, const ChangeSet& cs) {
   return count;
 }
 
-template PatchState make_patch_state<float>(SimBody<float>&, const Hierarchy&);
-template PatchState make_patch_state<double>(SimBody<double>&, const Hierarchy&);
+template PatchState make_patch_state<float>(SimBody<float>&, const Hierarchy&, const ActivationState&);
+template PatchState make_patch_state<double>(SimBody<double>&, const Hierarchy&, const ActivationState&);
 template ChangeSet apply_changes<float>(SimBody<float>&, PatchState&, const ActivationState&, const ActivationState::Changes&, double);
 template ChangeSet apply_changes<double>(SimBody<double>&, PatchState&, const ActivationState&, const ActivationState::Changes&, double);
 template std::size_t keep_momentum<float>(SimBody<float>&, const ChangeSet&);

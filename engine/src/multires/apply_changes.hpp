@@ -4,8 +4,9 @@
 // ActivationState::update() found, and gives the same result (tests/multires/test_apply_changes.cpp):
 //  - stepped runs: the hierarchy's tet order is kept (an adaptive body is not reordered), and each
 //    tet that turns on or off joins, splits or shrinks the run around it (binary search);
-//  - own masses (rho V / 4 of the stepped tets around a node) again for the corners of those tets
-//    only, summed in the full apply's order (ascending tets); a node's mass is its own plus its
+//  - own masses (rho V / 4 of the stepped tets around a node, times each tet's mass share) again
+//    for the corners of those tets and of the tets whose share changed (tets_reweighed) only,
+//    summed in the full apply's order (ascending tets); a node's mass is its own plus its
 //    receiver entries' w x the ghost's own, again only for the nodes whose mass can change: the
 //    corners of the tets, the changed nodes, and the old and new sources of both;
 //  - the body's total: the full apply scales every mass so that the body weighs rho x the volume of
@@ -90,7 +91,7 @@ struct ChangeSet {
 // Once, after build_multilevel_body (its full apply): the own masses, the region selections, and
 // the corner forces of the tets not stepped cleared (every later change clears those it turns off).
 template <class T>
-PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h);
+PatchState make_patch_state(SimBody<T>& body, const Hierarchy& h, const ActivationState& as);
 
 // The level arrays of `body` made those of the activation `as` now is, from the changes its last
 // update() returned (`time`: s, for the offset of the nodes that become prescribed). Throws

@@ -131,11 +131,30 @@ Hierarchy link_levels(std::vector<TetMesh> meshes) {
     lc.to_finer.resize(coarse.node_count());
     for (std::size_t i = 0; i < coarse.node_count(); ++i) lc.to_finer[i] = in_fine.locate(coarse.point(i));
     lf.tet_parent.resize(fine.tet_count());
+    lf.tet_parent_offsets.assign(1, 0);
     for (std::size_t t = 0; t < fine.tet_count(); ++t) {
       Vec3d c{0, 0, 0};
       for (int a = 0; a < 4; ++a)
         for (int k = 0; k < 3; ++k) c[std::size_t(k)] += 0.25 * fine.points[3 * std::size_t(fine.tets[t][std::size_t(a)]) + std::size_t(k)];
       lf.tet_parent[t] = in_coarse.locate(c).tet;
+      // The coarse tets next to its corners (activation.hpp: an active node gets every tet around
+      // it). Points an eighth of the way from each corner to the centroid: strictly inside the tet,
+      // so a nested tet finds only its parent, and well within the reach (a quarter of the mean
+      // edge) inside which a finer node counts as covered by a coarser tet.
+      std::array<std::int32_t, 5> found{lf.tet_parent[t], -1, -1, -1, -1};
+      for (int a = 0; a < 4; ++a) {
+        Vec3d q = c;
+        for (int k = 0; k < 3; ++k) {
+          const double corner = fine.points[3 * std::size_t(fine.tets[t][std::size_t(a)]) + std::size_t(k)];
+          q[std::size_t(k)] = corner + 0.125 * (c[std::size_t(k)] - corner);
+        }
+        found[std::size_t(a) + 1] = in_coarse.locate(q).tet;
+      }
+      lf.tet_corner_parent.push_back({found[1], found[2], found[3], found[4]});
+      std::sort(found.begin(), found.end());
+      for (std::size_t e = 0; e < found.size(); ++e)
+        if (found[e] >= 0 && (e == 0 || found[e] != found[e - 1])) lf.tet_parents.push_back(found[e]);
+      lf.tet_parent_offsets.push_back(std::int32_t(lf.tet_parents.size()));
     }
     // Children (CSR, in fine node order) and rings (tets of the fine level around the children).
     lc.child_offsets.assign(coarse.node_count() + 1, 0);

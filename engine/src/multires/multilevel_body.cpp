@@ -59,9 +59,15 @@ SimBody<T> build_multilevel_body(const Hierarchy& h, const BodyDef& def, double 
     }
     meshes[l].points = src.points;
     meshes[l].tets.reserve(src.tet_count());
+    std::vector<std::uint8_t> share;  // the mass shares, in the new order
+    share.reserve(src.tet_count());
     for (int pass = 0; pass < 2; ++pass)
       for (std::size_t t = 0; t < src.tet_count(); ++t)
-        if (bool(stepped[t]) == (pass == 0)) meshes[l].tets.push_back(src.tets[t]);
+        if (bool(stepped[t]) == (pass == 0)) {
+          meshes[l].tets.push_back(src.tets[t]);
+          share.push_back(act.levels[l].share[t]);
+        }
+    act.levels[l].share = std::move(share);
     const std::size_t count = std::size_t(std::count(stepped.begin(), stepped.end(), std::uint8_t(1)));
     std::fill(stepped.begin(), stepped.end(), std::uint8_t(0));
     std::fill(stepped.begin(), stepped.begin() + std::ptrdiff_t(count), std::uint8_t(1));
@@ -111,7 +117,8 @@ void apply_activation(SimBody<T>& body, const Activation& act, const Hierarchy& 
     mass[l].assign(L.node_count, 0.0);
     for (std::size_t t = 0; t < m.tet_count(); ++t)
       if (la.stepped[t]) {
-        const double q = def.material.density * tet_rest_volume(m, t) / 4;
+        // rho V / 4, times the tet's mass share (1 unless it overlaps coarser stepped tets)
+        const double q = def.material.density * tet_rest_volume(m, t) / 4 * (double(la.share[t]) / kMassShares);
         for (int a = 0; a < 4; ++a) mass[l][std::size_t(m.tets[t][std::size_t(a)])] += q;
       }
     L.ghosts.assign(la.ghosts.begin(), la.ghosts.end());
