@@ -229,6 +229,33 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
   straddling_.assign(n, 0);
   for (std::size_t l = 1; l < n; ++l)
     for (std::size_t t = 0; t < h.meshes[l].tet_count(); ++t) straddling_[l] += straddles(l, std::int32_t(t));
+  // Coarser tet -> the straddling finer tets with a corner near its surface (within the finer
+  // level's reach, not deeper inside it): those whose presence can change with its coverage.
+  near_offsets_.assign(n, std::vector<std::vector<std::int32_t>>(n));
+  near_list_.assign(n, std::vector<std::vector<std::int32_t>>(n));
+  for (std::size_t l = 1; l < n; ++l) {
+    if (straddling_[l] == 0) continue;
+    const TetMesh& m = h.meshes[l];
+    for (std::size_t c = 0; c < l; ++c) {
+      std::vector<std::pair<std::int32_t, std::int32_t>> pairs;  // (coarse tet, fine tet)
+      std::vector<std::int32_t> found;
+      for (std::size_t t = 0; t < m.tet_count(); ++t) {
+        if (!straddles(l, std::int32_t(t))) continue;
+        found.clear();
+        for (int a = 0; a < 4; ++a) tet_locators_[c]->near_surface(m.point(std::size_t(m.tets[t][std::size_t(a)])), reach_[l], found);
+        sort_unique(found);
+        for (auto k : found) pairs.push_back({k, std::int32_t(t)});
+      }
+      std::sort(pairs.begin(), pairs.end());
+      auto& off = near_offsets_[c][l];
+      off.assign(h.meshes[c].tet_count() + 1, 0);
+      for (const auto& pr : pairs) ++off[std::size_t(pr.first) + 1];
+      for (std::size_t k = 0; k < h.meshes[c].tet_count(); ++k) off[k + 1] += off[k];
+      auto& list = near_list_[c][l];
+      list.reserve(pairs.size());
+      for (const auto& pr : pairs) list.push_back(pr.second);
+    }
+  }
   for (std::size_t l = 0; l + 1 < n; ++l) {  // tet -> the finer tets that reach into it
     const auto& poff = h.links[l + 1].tet_parent_offsets;
     const auto& parents = h.links[l + 1].tet_parents;
@@ -263,6 +290,9 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
     stepped_incident_[l].assign(m.node_count(), 0);
     stepped_count_.resize(n);
     stepped_count_[l] = 0;
+    split_count_.resize(n);
+    split_count_[l] = 0;
+    for (std::size_t t = 0; t < m.tet_count(); ++t) split_count_[l] += pr[t] && rf[t];
     for (std::size_t t = 0; t < m.tet_count(); ++t) {
       stepped_[l][t] = pr[t] && !rf[t];
       stepped_count_[l] += stepped_[l][t];
@@ -317,8 +347,17 @@ bool ActivationState::covered(int l, std::int32_t node) const {
   if (memo == 0) {
     const Vec3d p = h_.meshes[std::size_t(l)].point(std::size_t(node));
     bool cov = false;
-    for (int c = 0; c < l && !cov; ++c)
-      cov = tet_locators_[std::size_t(c)]->containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]).tet >= 0;
+    for (int c = 0; c < l && !cov; ++c) {
+      const TetLocator& in = *tet_locators_[std::size_t(c)];
+      // Deeper than the reach inside one tet of level c, no other tet of it is within the reach:
+      // that tet decides (the search around p below is the cost of update() on large bodies).
+      const std::int32_t t = c + 1 == l ? h_.links[std::size_t(l)].to_coarser[std::size_t(node)].tet : in.locate(p).tet;
+      if (t >= 0 && in.depth(t, p) > reach_[std::size_t(l)]) {
+        cov = stepped_[std::size_t(c)][std::size_t(t)] != 0;
+        continue;
+      }
+      cov = in.containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]).tet >= 0;
+    }
     memo = cov ? 1 : 2;
     covered_memo_set_.push_back(node);
   }
@@ -415,6 +454,7 @@ ActivationState::Changes ActivationState::update() {
   // at its middle level found ~100 of its inactive fine nodes per changed coarse tet, 7 us each).
   std::vector<std::size_t> stepped_before = stepped_count_;
   std::vector<std::vector<std::pair<Vec3d, Vec3d>>> boxes(n);
+  std::vector<std::vector<std::int32_t>> changed_tets(n);  // per level: the tets of `boxes`
   for (std::size_t l = 0; l < n; ++l) {
     const TetMesh& m = h_.meshes[l];
     std::vector<std::int32_t> cand = std::move(from_parents);
@@ -428,29 +468,19 @@ ActivationState::Changes ActivationState::update() {
     // A tet is also present by its corners that no coarser stepped tet covers (present_from_parents):
     // where coarser tets started or stopped being stepped, the tets around the nodes they reach.
     // Only tets that straddle coarser tets can be present that way (none in nested levels).
-    std::vector<std::int32_t>& near = scratch_nodes_;
-    near.clear();
-    if (straddling_[l] > 0)
-      for (std::size_t c = 0; c < l; ++c)
-        for (const auto& [lo, hi] : boxes[c]) {
-          const double r = reach_[l];
-          node_locators_[l]->in_box({lo[0] - r, lo[1] - r, lo[2] - r}, {hi[0] + r, hi[1] + r, hi[2] + r}, near);
-        }
-    {  // each node and tet once (marks, not a sort: coarse tets' boxes hold many finer nodes each)
-      auto& nm = node_mark_[l];
+    // Only tets that straddle coarser tets can be present that way (none in nested levels), and
+    // only where a coarser level has a split tet for them to reach into.
+    if (l > 0 && straddling_[l] > 0 && split_count_[l - 1] > 0) {
       auto& tm = tet_mark_[l];
       std::vector<std::int32_t>& near_tets = scratch_tets_;
-      for (auto node : near) {
-        if (nm[std::size_t(node)]) continue;
-        nm[std::size_t(node)] = 1;
-        auto [b, e] = node_tets(int(l), node);
-        for (; b != e; ++b)
-          if (!tm[std::size_t(*b)] && straddles(l, *b)) {
-            tm[std::size_t(*b)] = 1;
-            near_tets.push_back(*b);
-          }
-      }
-      for (auto node : near) nm[std::size_t(node)] = 0;
+      for (std::size_t c = 0; c < l; ++c)
+        for (auto k : changed_tets[c])
+            for (auto e = near_offsets_[c][l][std::size_t(k)]; e < near_offsets_[c][l][std::size_t(k) + 1]; ++e) {
+              const auto t = near_list_[c][l][std::size_t(e)];
+              if (tm[std::size_t(t)]) continue;
+              tm[std::size_t(t)] = 1;
+              near_tets.push_back(t);
+            }
       // Only those whose presence the coverage changes (the coarser levels are final by now).
       for (auto t : near_tets) {
         tm[std::size_t(t)] = 0;
@@ -522,6 +552,7 @@ ActivationState::Changes ActivationState::update() {
       const auto t = region[k];
       const std::uint8_t now = present_[l][std::size_t(t)] && !refined_[l][std::size_t(t)];
       const std::uint8_t split = present_[l][std::size_t(t)] && refined_[l][std::size_t(t)];
+      if (split != was_split[k]) split_count_[l] = split ? split_count_[l] + 1 : split_count_[l] - 1;
       if (split != was_split[k] && l + 1 < n)
         from_parents.insert(from_parents.end(), child_list_[l].begin() + child_offsets_[l][std::size_t(t)],
                             child_list_[l].begin() + child_offsets_[l][std::size_t(t) + 1]);
@@ -546,6 +577,7 @@ ActivationState::Changes ActivationState::update() {
         }
       }
       boxes[l].push_back({lo, hi});
+      changed_tets[l].push_back(t);
     }
   }
   for (std::size_t l = 0; l < n; ++l)

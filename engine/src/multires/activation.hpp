@@ -130,6 +130,10 @@ class ActivationState {
   std::vector<std::vector<std::uint8_t>> share_;  // per level, per tet: mass share (0 .. kMassShares)
   std::vector<std::vector<std::int32_t>> stepped_incident_;  // per level, per node: stepped tets around it
   std::vector<std::size_t> stepped_count_;                   // per level: its stepped tets
+  std::vector<std::size_t> split_count_;                     // per level: its present and refined tets
+  // [c][l], c < l: CSR over the tets of level c, the straddling tets of level l with a corner near
+  // their surface (built once; empty where level l has no straddling tet).
+  std::vector<std::vector<std::vector<std::int32_t>>> near_offsets_, near_list_;
   std::vector<std::vector<NodeRole>> role_;
   std::vector<std::vector<std::vector<GhostSource>>> sources_;
   // per level, per node: the ghosts (level, node) that read it (it is a corner of the tet they read)
@@ -137,7 +141,7 @@ class ActivationState {
   std::vector<std::vector<std::array<std::int32_t, 5>>> reads_;  // per ghost: level and corners of the tet it reads
   std::vector<std::vector<std::int32_t>> dirty_targets_;  // per level
   std::vector<GhostSource> acc_;                          // evaluate_node's scratch (its sources)
-  std::vector<std::int32_t> scratch_nodes_, scratch_tets_;  // update()'s scratch
+  std::vector<std::int32_t> scratch_tets_;  // update()'s scratch
   std::vector<std::size_t> straddling_;                   // per level: its tets that straddle coarser ones
   // covered()'s answers within one level's evaluation (0: not asked, 1: covered, 2: not), and the
   // nodes asked (forget_covered() clears them); marks that dedupe update()'s candidates.

@@ -113,6 +113,21 @@ std::array<double, 4> TetLocator::weights(std::int32_t t, const Vec3d& p) const 
   return w;
 }
 
+double TetLocator::depth(std::int32_t t, const Vec3d& p) const {
+  // Weight k is the distance to face k over the altitude onto it, and its gradient's norm is one
+  // over that altitude: the distance to face k is w_k / |grad w_k| (negative outside that face).
+  const auto& g = inverse_[std::size_t(t)];
+  const std::array<double, 4> w = weights(t, p);
+  double grad0[3] = {0, 0, 0};
+  double d = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) {
+    const double* r = &g[3 * std::size_t(a)];
+    d = std::min(d, w[std::size_t(a) + 1] / std::sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]));
+    for (int k = 0; k < 3; ++k) grad0[k] -= r[k];
+  }
+  return std::min(d, w[0] / std::sqrt(grad0[0] * grad0[0] + grad0[1] * grad0[1] + grad0[2] * grad0[2]));
+}
+
 TetLink TetLocator::locate(const Vec3d& p) const {
   TetLink best;
   const Cell c = cell_of(p);
@@ -176,6 +191,32 @@ TetLink TetLocator::containing(const Vec3d& p, const std::vector<std::uint8_t>& 
     }
   }
   return best;
+}
+
+void TetLocator::near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const {
+  Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
+  const Cell a = cell_of(lo), b = cell_of(hi);
+  const std::size_t first = out.size();
+  for (int z = a[2]; z <= b[2]; ++z)
+    for (int y = a[1]; y <= b[1]; ++y)
+      for (int x = a[0]; x <= b[0]; ++x) {
+        const std::size_t k = bucket({x, y, z});
+        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
+          const std::int32_t t = items_[std::size_t(i)];
+          if (depth(t, p) > radius) continue;  // deep inside t
+          // Within the radius of t (the point of its clamped weights, as containing_or_near)?
+          auto w = weights(t, p);
+          double sum = 0;
+          for (double& v : w) sum += (v = std::max(v, 0.0));
+          Vec3d q{0, 0, 0};
+          for (int c = 0; c < 4; ++c)
+            for (int d = 0; d < 3; ++d)
+              q[std::size_t(d)] += w[std::size_t(c)] / sum * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(c)]) + std::size_t(d)];
+          if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= radius) out.push_back(t);
+        }
+      }
+  std::sort(out.begin() + std::ptrdiff_t(first), out.end());
+  out.erase(std::unique(out.begin() + std::ptrdiff_t(first), out.end()), out.end());
 }
 
 TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const {

@@ -28,6 +28,12 @@ class TetLocator {
   TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const;
   // Barycentric weights of p in tet t (sum 1, any sign).
   std::array<double, 4> weights(std::int32_t t, const Vec3d& p) const;
+  // Appends (ascending, each once) the tets within `radius` (m) of p, as containing_or_near measures
+  // it, other than those p lies deeper than `radius` inside: the tets whose coverage of p can
+  // change without p's own tet changing.
+  void near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const;
+  // Distance (m) from p to the nearest face of tet t, negative when p is outside it.
+  double depth(std::int32_t t, const Vec3d& p) const;
 
  private:
   using Cell = std::array<int, 3>;
