@@ -237,12 +237,25 @@ ActivationState::ActivationState(const Hierarchy& h, std::vector<std::vector<int
     if (straddling_[l] == 0) continue;
     const TetMesh& m = h.meshes[l];
     for (std::size_t c = 0; c < l; ++c) {
+      // Per corner node of a straddling tet (a node is a corner of about 20 tets), then per tet.
+      std::vector<std::int32_t> node_off(m.node_count() + 1, 0), node_list;
+      std::vector<std::uint8_t> corner(m.node_count(), 0);
+      for (std::size_t t = 0; t < m.tet_count(); ++t)
+        if (straddles(l, std::int32_t(t)))
+          for (int a = 0; a < 4; ++a) corner[std::size_t(m.tets[t][std::size_t(a)])] = 1;
+      for (std::size_t v = 0; v < m.node_count(); ++v) {
+        if (corner[v]) tet_locators_[c]->near_surface(m.point(v), reach_[l], node_list);
+        node_off[v + 1] = std::int32_t(node_list.size());
+      }
       std::vector<std::pair<std::int32_t, std::int32_t>> pairs;  // (coarse tet, fine tet)
       std::vector<std::int32_t> found;
       for (std::size_t t = 0; t < m.tet_count(); ++t) {
         if (!straddles(l, std::int32_t(t))) continue;
         found.clear();
-        for (int a = 0; a < 4; ++a) tet_locators_[c]->near_surface(m.point(std::size_t(m.tets[t][std::size_t(a)])), reach_[l], found);
+        for (int a = 0; a < 4; ++a) {
+          const auto v = std::size_t(m.tets[t][std::size_t(a)]);
+          found.insert(found.end(), node_list.begin() + node_off[v], node_list.begin() + node_off[v + 1]);
+        }
         sort_unique(found);
         for (auto k : found) pairs.push_back({k, std::int32_t(t)});
       }
