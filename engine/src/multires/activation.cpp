@@ -479,21 +479,19 @@ ActivationState::Changes ActivationState::update() {
     }
     dirty_targets_[l].clear();
     // A tet is also present by its corners that no coarser stepped tet covers (present_from_parents):
-    // where coarser tets started or stopped being stepped, the tets around the nodes they reach.
-    // Only tets that straddle coarser tets can be present that way (none in nested levels).
-    // Only tets that straddle coarser tets can be present that way (none in nested levels), and
-    // only where a coarser level has a split tet for them to reach into.
+    // where coarser tets started or stopped being stepped, the straddling tets listed near them
+    // (none in nested levels; and none can be present while the level above has no split tet).
     if (l > 0 && straddling_[l] > 0 && split_count_[l - 1] > 0) {
       auto& tm = tet_mark_[l];
       std::vector<std::int32_t>& near_tets = scratch_tets_;
       for (std::size_t c = 0; c < l; ++c)
         for (auto k : changed_tets[c])
-            for (auto e = near_offsets_[c][l][std::size_t(k)]; e < near_offsets_[c][l][std::size_t(k) + 1]; ++e) {
-              const auto t = near_list_[c][l][std::size_t(e)];
-              if (tm[std::size_t(t)]) continue;
-              tm[std::size_t(t)] = 1;
-              near_tets.push_back(t);
-            }
+          for (auto e = near_offsets_[c][l][std::size_t(k)]; e < near_offsets_[c][l][std::size_t(k) + 1]; ++e) {
+            const auto t = near_list_[c][l][std::size_t(e)];
+            if (tm[std::size_t(t)]) continue;
+            tm[std::size_t(t)] = 1;
+            near_tets.push_back(t);
+          }
       // Only those whose presence the coverage changes (the coarser levels are final by now).
       for (auto t : near_tets) {
         tm[std::size_t(t)] = 0;
