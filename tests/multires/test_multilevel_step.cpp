@@ -265,10 +265,9 @@ TEST(MultilevelStep, UndampedEnergyStaysWithinOnePercent) {
 namespace pliant {
 namespace {
 
-// The organ's three levels are non-nested (Mesh_3 of simplified surfaces): a body at rest, or
-// turned rigidly, must stay as it is: every ghost reproduces affine motions exactly, those a little
-// outside their coarser tet included.
-TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
+// The default scene's organ (20 kPa, 1060 kg/m^3) on three non-nested levels, the finest in a 4 cm
+// sphere under its push, the others elsewhere.
+BodyDef organ_split() {
   BodyDef b;
   b.name = "organ";
   b.mesh.kind = MeshSourceDef::Kind::implicit;
@@ -285,6 +284,14 @@ TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
   fine.region.center = {0.03, 0, 0.04};
   fine.region.radius = 0.04;
   b.multiresolution.active.regions = {fine};
+  return b;
+}
+
+// The organ's three levels are non-nested (Mesh_3 of simplified surfaces): a body at rest, or
+// turned rigidly, must stay as it is: every ghost reproduces affine motions exactly, those a little
+// outside their coarser tet included.
+TEST(MultilevelStep, NonNestedOrganAtRestOrTurnedStaysPut) {
+  const BodyDef b = organ_split();
   for (bool turned : {false, true}) {
     World w(world_def());
     const BodyId id = w.add_body(b);
@@ -396,26 +403,11 @@ namespace {
 // active node, weighed by its mass share): kinetic + elastic + gravity's potential must stay what
 // it was at rest (0), against the potential the swing moves through.
 TEST(MultilevelStep, NonNestedOrganSwingsWithoutGainingEnergy) {
-  BodyDef b;
-  b.name = "organ";
-  b.mesh.kind = MeshSourceDef::Kind::implicit;
-  b.mesh.shape = "organ";
-  b.mesh.cell_size = 0.01;
-  b.material.young = 2e4;
-  b.material.poisson = 0.45;
-  b.material.density = 1060;
+  BodyDef b = organ_split();
   RegionDef ligament;
   ligament.min = {-1, -1, -1};
   ligament.max = {-0.075, 1, 1};
   b.fixed = {ligament};
-  b.multiresolution.levels = 3;
-  b.multiresolution.active.kind = ActiveDef::Kind::regions;
-  ActiveRegionDef fine;
-  fine.level = 2;
-  fine.region.kind = RegionDef::Kind::sphere;
-  fine.region.center = {0.03, 0, 0.04};
-  fine.region.radius = 0.04;
-  b.multiresolution.active.regions = {fine};
   WorldDef wd = world_def(2);
   wd.gravity = {0, 0, -9.81};
   World w(wd);
@@ -434,19 +426,7 @@ TEST(MultilevelStep, NonNestedOrganSwingsWithoutGainingEnergy) {
 }
 
 TEST(MultilevelStep, NonNestedSplitWeighsTheBody) {
-  BodyDef b;
-  b.mesh.kind = MeshSourceDef::Kind::implicit;
-  b.mesh.shape = "organ";
-  b.mesh.cell_size = 0.01;
-  b.material.density = 1060;
-  b.multiresolution.levels = 3;
-  b.multiresolution.active.kind = ActiveDef::Kind::regions;
-  ActiveRegionDef fine;
-  fine.level = 2;
-  fine.region.kind = RegionDef::Kind::sphere;
-  fine.region.center = {0.03, 0, 0.04};
-  fine.region.radius = 0.04;
-  b.multiresolution.active.regions = {fine};
+  const BodyDef b = organ_split();
   World w(world_def());
   const BodyId id = w.add_body(b);
   const TetMesh finest = build_mesh(b.mesh);

@@ -155,14 +155,8 @@ TetLink TetLocator::locate(const Vec3d& p) const {
     shell(c, s, dims_, [&](std::size_t b) {
       for (std::int32_t i = offsets_[b]; i < offsets_[b + 1]; ++i) {
         const std::int32_t t = items_[std::size_t(i)];
-        auto w = weights(t, p);
-        double sum = 0;
-        for (double& x : w) sum += (x = std::max(x, 0.0));
-        for (double& x : w) x /= sum;
-        Vec3d q{0, 0, 0};
-        for (int a = 0; a < 4; ++a)
-          for (int k = 0; k < 3; ++k) q[k] += w[std::size_t(a)] * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(a)]) + std::size_t(k)];
-        const double d = std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+        std::array<double, 4> w;
+        const double d = clamped_distance(t, p, &w);
         if (d < best_d || (d == best_d && t < best.tet)) {
           best_d = d;
           best.tet = t;
@@ -193,28 +187,36 @@ TetLink TetLocator::containing(const Vec3d& p, const std::vector<std::uint8_t>& 
   return best;
 }
 
-void TetLocator::near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const {
-  Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
+double TetLocator::clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4>* clamped) const {
+  auto w = weights(t, p);
+  double sum = 0;
+  for (double& v : w) sum += (v = std::max(v, 0.0));
+  for (double& v : w) v /= sum;
+  Vec3d q{0, 0, 0};
+  for (int c = 0; c < 4; ++c)
+    for (int d = 0; d < 3; ++d) q[std::size_t(d)] += w[std::size_t(c)] * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(c)]) + std::size_t(d)];
+  if (clamped) *clamped = w;
+  return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+}
+
+template <class F>
+void TetLocator::each_tet_near(const Vec3d& p, double radius, F&& f) const {
+  const Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
   const Cell a = cell_of(lo), b = cell_of(hi);
-  const std::size_t first = out.size();
   for (int z = a[2]; z <= b[2]; ++z)
     for (int y = a[1]; y <= b[1]; ++y)
       for (int x = a[0]; x <= b[0]; ++x) {
         const std::size_t k = bucket({x, y, z});
-        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
-          const std::int32_t t = items_[std::size_t(i)];
-          if (depth(t, p) > radius) continue;  // deep inside t
-          // Within the radius of t (the point of its clamped weights, as containing_or_near)?
-          auto w = weights(t, p);
-          double sum = 0;
-          for (double& v : w) sum += (v = std::max(v, 0.0));
-          Vec3d q{0, 0, 0};
-          for (int c = 0; c < 4; ++c)
-            for (int d = 0; d < 3; ++d)
-              q[std::size_t(d)] += w[std::size_t(c)] / sum * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(c)]) + std::size_t(d)];
-          if (std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]) <= radius) out.push_back(t);
-        }
+        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) f(items_[std::size_t(i)]);
       }
+}
+
+void TetLocator::near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const {
+  const std::size_t first = out.size();
+  each_tet_near(p, radius, [&](std::int32_t t) {
+    if (depth(t, p) > radius) return;  // deep inside t
+    if (clamped_distance(t, p) <= radius) out.push_back(t);
+  });
   std::sort(out.begin() + std::ptrdiff_t(first), out.end());
   out.erase(std::unique(out.begin() + std::ptrdiff_t(first), out.end()), out.end());
 }
@@ -223,32 +225,16 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
   TetLink best = containing(p, mask);
   if (best.tet >= 0 || !(radius > 0)) return best;
   double best_d = radius;
-  Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
-  const Cell a = cell_of(lo), b = cell_of(hi);
-  for (int z = a[2]; z <= b[2]; ++z)
-    for (int y = a[1]; y <= b[1]; ++y)
-      for (int x = a[0]; x <= b[0]; ++x) {
-        const std::size_t k = bucket({x, y, z});
-        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
-          const std::int32_t t = items_[std::size_t(i)];
-          if (!mask[std::size_t(t)]) continue;
-          const auto exact = weights(t, p);
-          auto w = exact;
-          double sum = 0;
-          for (double& v : w) sum += (v = std::max(v, 0.0));
-          for (double& v : w) v /= sum;
-          Vec3d q{0, 0, 0};
-          for (int c = 0; c < 4; ++c)
-            for (int d = 0; d < 3; ++d) q[std::size_t(d)] += w[std::size_t(c)] * mesh_.points[3 * std::size_t(mesh_.tets[std::size_t(t)][std::size_t(c)]) + std::size_t(d)];
-          const double dist = std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
-          if (dist < best_d || (dist == best_d && best.tet >= 0 && t < best.tet)) {
-            best_d = dist;
-            best.tet = t;
-            best.weights = exact;  // extrapolated, not clamped: still exact for affine motions
-            best.outside = dist;
-          }
-        }
-      }
+  each_tet_near(p, radius, [&](std::int32_t t) {
+    if (!mask[std::size_t(t)]) return;
+    const double dist = clamped_distance(t, p);
+    if (dist < best_d || (dist == best_d && best.tet >= 0 && t < best.tet)) {
+      best_d = dist;
+      best.tet = t;
+      best.weights = weights(t, p);  // extrapolated, not clamped: still exact for affine motions
+      best.outside = dist;
+    }
+  });
   return best;
 }
 

@@ -38,6 +38,13 @@ class TetLocator {
  private:
   using Cell = std::array<int, 3>;
   Cell cell_of(const Vec3d& p) const;
+  // Distance (m) from p to the point of tet t its weights give, clamped to >= 0 and renormalised
+  // (0 inside; an upper bound of the distance to the tet outside); those weights in *clamped.
+  double clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4>* clamped = nullptr) const;
+  // f(t) for every tet listed in the buckets of the box of half-side `radius` around p (with
+  // repeats: a tet is listed in every bucket its bounding box touches).
+  template <class F>
+  void each_tet_near(const Vec3d& p, double radius, F&& f) const;
   std::size_t bucket(const Cell& c) const { return (std::size_t(c[2]) * dims_[1] + std::size_t(c[1])) * dims_[0] + std::size_t(c[0]); }
   const TetMesh& mesh_;
   Vec3d lo_{}, size_{};
