@@ -134,10 +134,6 @@ Activation activate(const Hierarchy& h, const ActiveDef& active) {
   return ActivationState(h, node_targets(h, active)).snapshot();
 }
 
-namespace {
-
-// The same, through marks (all 0 before and after): each value once, then a sort of what is left,
-// which is much shorter than v when the boxes and neighbour lists that fill it overlap.
 void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>& mark) {
   std::size_t out = 0;
   for (std::size_t i = 0; i < v.size(); ++i)
@@ -149,6 +145,8 @@ void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>&
   for (auto x : v) mark[std::size_t(x)] = 0;
   std::sort(v.begin(), v.end());
 }
+
+namespace {
 
 void sort_unique(std::vector<std::int32_t>& v) {
   std::sort(v.begin(), v.end());
@@ -334,22 +332,24 @@ bool ActivationState::straddles(std::size_t l, std::int32_t t) const {
   return lk.tet_parent_offsets[std::size_t(t) + 1] - lk.tet_parent_offsets[std::size_t(t)] > 1;
 }
 
+bool ActivationState::split(std::size_t l, std::int32_t t) const {
+  return t >= 0 && present_[l][std::size_t(t)] && refined_[l][std::size_t(t)];
+}
+
 std::uint8_t ActivationState::present_from_parents(std::size_t l, std::int32_t t) const {
   const LevelLinks& lk = h_.links[l];
-  auto split = [&](std::int32_t p) { return p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)]; };
-  if (split(lk.tet_parent[std::size_t(t)])) return 1;
+  if (split(l - 1, lk.tet_parent[std::size_t(t)])) return 1;
   const Tet& tet = h_.meshes[l].tets[std::size_t(t)];
   for (int a = 0; a < 4; ++a)
-    if (split(lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]) && !covered(int(l), tet[std::size_t(a)])) return 1;
+    if (split(l - 1, lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]) && !covered(int(l), tet[std::size_t(a)])) return 1;
   return 0;
 }
 
 std::uint8_t ActivationState::share_from_parents(std::size_t l, std::int32_t t) const {
   if (l == 0) return kMassShares;
   const LevelLinks& lk = h_.links[l];
-  auto split = [&](std::int32_t p) { return p >= 0 && present_[l - 1][std::size_t(p)] && refined_[l - 1][std::size_t(p)]; };
-  int share = split(lk.tet_parent[std::size_t(t)]);
-  for (int a = 0; a < 4; ++a) share += split(lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]);
+  int share = split(l - 1, lk.tet_parent[std::size_t(t)]);
+  for (int a = 0; a < 4; ++a) share += split(l - 1, lk.tet_corner_parent[std::size_t(t)][std::size_t(a)]);
   return std::uint8_t(share);
 }
 

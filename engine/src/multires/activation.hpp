@@ -59,6 +59,11 @@ struct Activation {
   std::vector<LevelActivation> levels;
 };
 
+// Sorts v and drops its repeats, through marks (all 0 before and after, one per possible value):
+// each value once, then a sort of what is left, much shorter than v when the lists that fill it
+// overlap.
+void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>& mark);
+
 // Targets of the nodes of every level (step 1).
 std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& active);
 
@@ -107,6 +112,8 @@ class ActivationState {
 
  private:
   void refine_rule(int l, std::int32_t t, std::vector<std::int32_t>& refined_now);
+  // Whether tet t of level l is present and refined (false for t < 0).
+  bool split(std::size_t l, std::int32_t t) const;
   // Step 2's presence of a tet of level l > 0 (the stepped sets of the coarser levels final).
   std::uint8_t present_from_parents(std::size_t l, std::int32_t t) const;
   // Its mass share's numerator (kMassShares at level 0).

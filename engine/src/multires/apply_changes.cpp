@@ -21,19 +21,6 @@ void sort_unique(std::vector<std::int32_t>& v) {
 
 // sort_unique for long lists of few distinct nodes (the corners of many tets): duplicates dropped
 // with the level's marks first (cleared again), then the distinct ones sorted.
-void sort_unique_marked(std::vector<std::int32_t>& v, std::vector<std::uint8_t>& mark) {
-  std::size_t out = 0;
-  for (std::size_t i = 0; i < v.size(); ++i) {
-    auto& m = mark[std::size_t(v[i])];
-    if (m) continue;
-    m = 1;
-    v[out++] = v[i];
-  }
-  v.resize(out);
-  for (const std::int32_t x : v) mark[std::size_t(x)] = 0;
-  std::sort(v.begin(), v.end());
-}
-
 bool holds(const std::vector<std::int32_t>& sorted, std::int32_t x) { return std::binary_search(sorted.begin(), sorted.end(), x); }
 
 // The first run that begins after tet t.
