@@ -11,7 +11,12 @@
 //     node -> corner incidence, so the node pass sums each node's slots as one contiguous run (a
 //     streaming segmented sum) instead of loading them through the incidence codes. The node
 //     forces must be the same bits (same values summed in the same order).
-//   ./perf/layout_ab [samples] [packed or incidence]
+//  3. "listed": the element pass over listed tets (a multiresolution level stepping part of its
+//     mesh: LevelInfo::listed), runs of 4 tets in every 16 (a quarter of the mesh, as a middle
+//     level's stepped region in runs of about 4), against the range pass over as many consecutive
+//     tets. The per-tet data of listed tets is gathered and their results scattered; the ratio is
+//     what that costs (docs/performance.md, "Partly stepped levels").
+//   ./perf/layout_ab [samples] [packed, incidence or listed]
 #include <immintrin.h>
 
 #include <algorithm>
@@ -210,6 +215,42 @@ void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damp
 }
 
 // 2: the prototype of corner forces in incidence order (float, 1 thread, undamped).
+template <class T>
+void listed_vs_range(const BoxSize& size, Precision p, bool damped, int samples) {
+  BodyDef b = box_body(ForceModel::corotational, size.cells);
+  if (damped) b.material.damping.stiffness = 1e-4;  // as the default scene
+  WorldDef wd;
+  wd.precision = p;
+  wd.threads = 1;
+  World w(wd);
+  w.add_body(b, box_mesh(size.cells, Order::grid));
+  for (int i = 0; i < 3; ++i) w.step();
+  Level<T>& L = w.level<T>(0);
+  const ElementContext<T> ec = element_context(L);  // corners gathered, as listed levels read them
+  std::vector<std::int32_t> ids;
+  for (std::size_t t = 0; t + 4 <= L.tet_count; t += 16)
+    for (std::size_t k = 0; k < 4; ++k) ids.push_back(std::int32_t(t + k));
+  const Range all{0, ids.size()};
+  std::vector<double> listed, range, ratio;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    element_forces_corotational_listed(ec, ids.data(), all);
+    const double a = since(t);
+    element_forces_corotational(ec, all);
+    const double c = since(t);
+    if (i < 3) continue;
+    listed.push_back(a);
+    range.push_back(c);
+    ratio.push_back(a / c);
+  }
+  const double k = 1e9 / double(ids.size());
+  std::printf("%s tets, %s, %s, 1 thread, %zu listed tets (runs of 4 in every 16): ns/tet, median [min - max] of %d\n",
+              size.label, p == Precision::float32 ? "float" : "double", damped ? "damped" : "undamped", ids.size(), samples);
+  print("element, listed tets", stat(listed, k));
+  print("element, as many consecutive tets", stat(range, k));
+  print("  ratio listed / range (per pair)", stat(ratio, 1.0));
+}
+
 bool incidence_order(const BoxSize& size, int samples) {
   World w = make_box_world(ForceModel::corotational, Precision::float32, 1, size.cells, Order::grid);
   Level<float>& L = w.level<float>(0);
@@ -302,6 +343,11 @@ int main(int argc, char** argv) {
           packed_vs_gathered<double>(size, Precision::float64, threads, damped, samples);
         }
     if (only.empty() || only == "incidence") ok &= incidence_order(size, samples);
+    if (only.empty() || only == "listed")
+      for (bool damped : {false, true}) {
+        listed_vs_range<float>(size, Precision::float32, damped, samples);
+        listed_vs_range<double>(size, Precision::float64, damped, samples);
+      }
   }
   return ok ? 0 : 1;
 }

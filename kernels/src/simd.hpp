@@ -124,6 +124,43 @@ inline Pack<double>::N gather(const double* base, const std::int32_t* idx) {
 #endif
 }
 
+// base[idx[l]] = n[l] for the first `count` lanes of one register (count <= NW); the others are
+// not stored. The indices of the stored lanes must differ (they are distinct tets), so the
+// order of the stores does not matter. AVX-512: one masked scatter instead of extracting and
+// storing lane by lane.
+inline void scatter(float* base, const std::int32_t* idx, int count, const Pack<float>::N& n) {
+#if PLIANT_SIMD_BYTES == 64
+  const __mmask16 m = count >= 16 ? __mmask16(0xFFFF) : __mmask16((1u << count) - 1);
+  _mm512_mask_i32scatter_ps(base, m, _mm512_loadu_si512(idx), __m512(n), 4);
+#else
+  for (int l = 0; l < count; ++l) base[idx[l]] = n[l];
+#endif
+}
+inline void scatter(double* base, const std::int32_t* idx, int count, const Pack<double>::N& n) {
+#if PLIANT_SIMD_BYTES == 64
+  const __mmask8 m = count >= 8 ? __mmask8(0xFF) : __mmask8((1u << count) - 1);
+  _mm512_mask_i32scatter_pd(base, m, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), __m512d(n), 8);
+#else
+  for (int l = 0; l < count; ++l) base[idx[l]] = n[l];
+#endif
+}
+
+// out[l] = base[idx[l]] for NI int32 lanes (NI: a native register's worth of floats).
+inline constexpr int kNativeInts = kNativeBytes / 4;
+inline void gather_i32(const std::int32_t* base, const std::int32_t* idx, std::int32_t* out) {
+#if PLIANT_SIMD_BYTES == 64
+  // The masked form with a zero source: the unmasked one starts from _mm512_undefined_epi32,
+  // which GCC 12 warns about (-Wuninitialized), as for the float gather above.
+  _mm512_storeu_si512(out, _mm512_mask_i32gather_epi32(_mm512_setzero_si512(), __mmask16(0xFFFF),
+                                                       _mm512_loadu_si512(idx), base, 4));
+#elif PLIANT_SIMD_BYTES == 32 && defined(__AVX2__)
+  _mm256_storeu_si256(reinterpret_cast<__m256i*>(out),
+                      _mm256_i32gather_epi32(base, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx)), 4));
+#else
+  for (int l = 0; l < kNativeInts; ++l) out[l] = base[idx[l]];
+#endif
+}
+
 // Corner positions from an interleaved node array xp (4 values per node: x y z pad): out[k][l]
 // = xp[4 * idx[l] + k] for k = 0, 1, 2, the lanes of one register. The same values as three
 // gathers from x[3][n]; with AVX-512 one 16 (float) or 32 (double) byte load per node and a
@@ -301,6 +338,23 @@ inline typename Pack<T>::V gather(const T* base, const std::int32_t* idx) {
     std::memcpy(reinterpret_cast<char*>(&v) + u * kNativeBytes, &n, kNativeBytes);
   }
   return v;
+}
+
+// base[idx[l]] = v[l] for the lanes l < count (native::scatter); the indices must differ.
+template <class T>
+inline void scatter(T* base, const std::int32_t* idx, int count, const typename Pack<T>::V& v) {
+  for (int u = 0; u < kUnroll && count > u * Pack<T>::NW; ++u) {
+    typename Pack<T>::N n;
+    std::memcpy(&n, reinterpret_cast<const char*>(&v) + u * kNativeBytes, kNativeBytes);
+    native::scatter(base, idx + u * Pack<T>::NW, count - u * Pack<T>::NW, n);
+  }
+}
+
+// out[l] = base[idx[l]] for W int32 lanes (W a multiple of native::kNativeInts).
+template <int W>
+inline void gather_i32(const std::int32_t* base, const std::int32_t* idx, std::int32_t out[W]) {
+  static_assert(W % native::kNativeInts == 0, "whole registers of indices");
+  for (int u = 0; u < W; u += native::kNativeInts) native::gather_i32(base, idx + u, out + u);
 }
 
 // out[k][l] = xp[4 * idx[l] + k], k = 0, 1, 2, for the W lanes (native::gather_xyz).

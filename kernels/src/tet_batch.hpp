@@ -71,12 +71,15 @@ struct ListedTets {
     for (int l = 0; l < W; ++l) id[l] = ids[std::min(l, n - 1)];
   }
   V load(const T* p) const { return simd::gather(p, id); }
-  void store(T* p, const V& v) const {
-    for (int l = 0; l < count; ++l) p[id[l]] = v[l];
-  }
+  // Lanes past `count` repeat the last tet and are not stored: the stored lanes are distinct tets.
+  void store(T* p, const V& v) const { simd::scatter<T>(p, id, count, v); }
   std::size_t tet(int l) const { return std::size_t(id[l]); }  // the tet of lane l < count
   void indices(const std::int32_t* p, std::int32_t out[W]) const {
-    for (int l = 0; l < W; ++l) out[l] = p[id[l]];
+    if constexpr (W % simd::native::kNativeInts == 0) {
+      simd::gather_i32<W>(p, id, out);
+    } else {
+      for (int l = 0; l < W; ++l) out[l] = p[id[l]];
+    }
   }
 };
 
