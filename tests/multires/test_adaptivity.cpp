@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 
+#include "pliant/level.hpp"
 #include "pliant/scene.hpp"
 #include "pliant/world.hpp"
 
@@ -497,6 +499,49 @@ TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
   single.step();
   EXPECT_EQ(single.level_info(0, 0).pass_nodes, single.level_info(0, 0).nodes);
   EXPECT_FALSE(single.level_info(0, 0).listed);
+}
+
+TEST(Adaptivity, AListedLevelGathersItsSteppedTetsOnly) {
+  // The slab of the test above: its fine level steps a region near the push, from a list. Its
+  // gather sums the corner forces of its stepped tets only (their 4 corners each, all of them
+  // simulated nodes), not of every tet around its nodes, and gives the bits of a gather over
+  // every tet around them (the others' corner forces are zero: a sum that starts at +0 does not
+  // change by adding a zero).
+  World w(no_gravity());
+  BodyDef b = clamped_slab();
+  b.mesh.max[0] = 0.4;
+  b.mesh.cells[0] = 20;
+  PrescribedMotionDef push;
+  push.region.min = {-1, -1, 0.04 - 1e-9};
+  push.region.max = {0.02 + 1e-9, 1, 1};
+  push.keyframes = {{0.0, {0, 0, 0}}, {0.05, {0, 0, -0.005}}};
+  b.prescribed.push_back(push);
+  b.multiresolution.active.adapt.refine_above = 1e9;
+  b.multiresolution.active.adapt.coarsen_below = 1e8;
+  w.add_body(b);
+  while (w.time() < 0.05) w.step();
+  const LevelInfo fine = w.level_info(0, 1);
+  ASSERT_TRUE(fine.listed);
+  ASSERT_GT(fine.stepped_tets, 0u);
+  EXPECT_EQ(fine.gather_entries, 4 * fine.stepped_tets);
+  // The finest level's window ends on every tick: its corner forces are the ones its last gather summed.
+  const Level<double>& L = w.level<double>(0, 1);
+  std::size_t every_tet_around = 0, checked = 0;
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    if (L.state[n] == kNodeInactive) continue;
+    double f[3] = {0, 0, 0};
+    for (auto e = L.incidence_offsets[n]; e < L.incidence_offsets[n + 1]; ++e) {
+      const std::int32_t code = L.incidence[std::size_t(e)];
+      for (int k = 0; k < 3; ++k) f[k] += L.corner_force[std::size_t(3 * (code & 3) + k)][std::size_t(code >> 2)];
+    }
+    every_tet_around += std::size_t(L.incidence_offsets[n + 1] - L.incidence_offsets[n]);
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(std::memcmp(&f[k], &L.f[k][n], sizeof(double)), 0) << "node " << n << ", component " << k;
+    ++checked;
+  }
+  EXPECT_GT(checked, 0u);
+  std::printf("fine level: %zu stepped tets, gather entries %zu, every tet around its simulated nodes %zu\n",
+              fine.stepped_tets, fine.gather_entries, every_tet_around);
+  EXPECT_GT(every_tet_around, fine.gather_entries);  // what the gather read before (and the gaps' tets)
 }
 
 std::uint64_t adaptive_hash(int threads) {

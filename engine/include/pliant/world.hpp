@@ -41,6 +41,8 @@ struct LevelInfo {
                                  // those not inactive, and short gaps between them
   bool listed = false;           // its element pass reads its stepped tets from a list: they lie in
                                  // short runs (a region of its mesh), and a list fills the vector lanes
+  std::size_t gather_entries = 0;  // corner forces its gather sums per step: over its pass nodes, every
+                                   // tet around them, or (listed) its stepped tets' corners only
   int period = 1;                // fine ticks per step of the level
   double dt = 0;                 // s, its step: period x the tick
   double stable_dt = 0;          // s, its stable bound

@@ -54,6 +54,33 @@ void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
     for (std::size_t t = r.begin; t < r.end; ++t) out.push_back(std::int32_t(t));
 }
 
+// LevelJobState::gather_offsets and gather_incidence of a listed level, after its node pieces:
+// the entries of its stepped tets, in incidence order, for the nodes of its pieces. O(tets + nodes
+// of the level + entries around its pieces), as prepare() is.
+template <class T>
+void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& js) {
+  stepped_mark_.assign(L.tet_count, 0);
+  for (const std::int32_t t : js.stepped) stepped_mark_[std::size_t(t)] = 1;
+  js.gather_offsets.assign(L.node_count + 1, 0);
+  js.gather_incidence.clear();
+  auto& out = js.gather_incidence;
+  std::size_t n = 0;  // the nodes below n have their offsets
+  for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+    const NodePiece<T>& piece = node_pieces_[q];
+    for (; n < piece.first; ++n) js.gather_offsets[n + 1] = std::int32_t(out.size());  // a gap: nothing
+    for (; n < piece.first + piece.count; ++n) {
+      for (auto e = L.incidence_offsets[n]; e < L.incidence_offsets[n + 1]; ++e) {
+        const std::int32_t code = L.incidence[std::size_t(e)];  // 4 * tet + corner
+        if (stepped_mark_[std::size_t(code >> 2)]) out.push_back(code);
+      }
+      js.gather_offsets[n + 1] = std::int32_t(out.size());
+    }
+  }
+  for (; n < L.node_count; ++n) js.gather_offsets[n + 1] = std::int32_t(out.size());
+  js.gc.offsets = js.gather_offsets.data();
+  js.gc.incidence = out.data();
+}
+
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
@@ -132,6 +159,7 @@ void Simulation<T>::prepare(double tick_dt) {
       n = last + 1;
     }
     js.end_node_piece = node_pieces_.size();
+    if (!js.stepped.empty()) list_gather_incidence(L, js);
   }
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
@@ -149,6 +177,18 @@ std::size_t Simulation<T>::pass_nodes(int body, int level) const {
   const LevelJobState<T>& js = job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)];
   std::size_t n = 0;
   for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) n += node_pieces_[q].count;
+  return n;
+}
+
+template <class T>
+std::size_t Simulation<T>::gather_entries(int body, int level) const {
+  if (job_of_body_.size() <= std::size_t(body)) return 0;  // before the first prepare()
+  const LevelJobState<T>& js = job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)];
+  std::size_t n = 0;
+  for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+    const NodePiece<T>& p = node_pieces_[q];
+    n += std::size_t(js.gc.offsets[p.first + p.count] - js.gc.offsets[p.first]);
+  }
   return n;
 }
 

@@ -842,6 +842,7 @@ LevelInfo World::level_info(BodyId b, int l) const {
     for (auto st : L.state) i.active_nodes += st == kNodeFree || st == kNodeFixed;
     i.pass_nodes = s.pass_nodes(b, l);
     i.listed = s.steps_listed(b, l);
+    i.gather_entries = s.gather_entries(b, l);
     i.period = L.period;
     i.dt = L.period * impl_->dt / impl_->substeps;
     i.stable_dt = L.stable_dt;
