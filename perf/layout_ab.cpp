@@ -231,24 +231,43 @@ void listed_vs_range(const BoxSize& size, Precision p, bool damped, int samples)
   for (std::size_t t = 0; t + 4 <= L.tet_count; t += 16)
     for (std::size_t k = 0; k < 4; ++k) ids.push_back(std::int32_t(t + k));
   const Range all{0, ids.size()};
-  std::vector<double> listed, range, ratio;
+  // The same list with its rest data copied in list order, as Simulation::prepare does for a
+  // listed level (ElementContext::listed_tet, listed_grad, listed_volume).
+  ElementContext<T> in_order = ec;
+  std::vector<std::int32_t> tet_copy[4];
+  std::vector<T> grad_copy[9], volume_copy;
+  for (const std::int32_t t : ids) {
+    for (int a = 0; a < 4; ++a) tet_copy[a].push_back(L.tet[a][std::size_t(t)]);
+    for (int q = 0; q < 9; ++q) grad_copy[q].push_back(L.grad[q][std::size_t(t)]);
+    volume_copy.push_back(L.volume[std::size_t(t)]);
+  }
+  for (int a = 0; a < 4; ++a) in_order.listed_tet[a] = tet_copy[a].data();
+  for (int q = 0; q < 9; ++q) in_order.listed_grad[q] = grad_copy[q].data();
+  in_order.listed_volume = volume_copy.data();
+  std::vector<double> listed, ordered, range, ratio, ratio_ordered;
   for (int i = 0; i < samples + 3; ++i) {
     auto t = Clock::now();
     element_forces_corotational_listed(ec, ids.data(), all);
     const double a = since(t);
+    element_forces_corotational_listed(in_order, ids.data(), all);
+    const double b2 = since(t);
     element_forces_corotational(ec, all);
     const double c = since(t);
     if (i < 3) continue;
     listed.push_back(a);
+    ordered.push_back(b2);
     range.push_back(c);
     ratio.push_back(a / c);
+    ratio_ordered.push_back(b2 / c);
   }
   const double k = 1e9 / double(ids.size());
   std::printf("%s tets, %s, %s, 1 thread, %zu listed tets (runs of 4 in every 16): ns/tet, median [min - max] of %d\n",
               size.label, p == Precision::float32 ? "float" : "double", damped ? "damped" : "undamped", ids.size(), samples);
   print("element, listed tets", stat(listed, k));
+  print("element, listed, rest data in order", stat(ordered, k));
   print("element, as many consecutive tets", stat(range, k));
   print("  ratio listed / range (per pair)", stat(ratio, 1.0));
+  print("  ratio in order / range (per pair)", stat(ratio_ordered, 1.0));
 }
 
 bool incidence_order(const BoxSize& size, int samples) {

@@ -111,13 +111,13 @@ template <class T, bool Damped, class At>
 __attribute__((always_inline)) inline void springs_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
-  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
+  for (int a = 0; a < 4; ++a) at.corners(c, a, e.n[a]);
   V X[4][3], v[4][3];
   load_positions(c, e);
   auto& x = e.x;
   gather_corners(c.X, e, X);
   if constexpr (Damped) gather_corners(c.v, e, v);
-  const V volume = at.load(c.volume);
+  const V volume = at.volume(c);
   V f[4][3] = {};
   for (const auto& edge : kEdges) {
     const int a = edge[0], b = edge[1];
@@ -190,7 +190,7 @@ template <class Model, class T, bool Damped>
 void listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W)
-    Model::template batch<T, Damped>(c, ListedTets<T>(ids + t, int(std::min<std::size_t>(W, r.end - t))));
+    Model::template batch<T, Damped>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t))));
 }
 
 }  // namespace pliant::detail

@@ -20,7 +20,7 @@ template <class T>
 void element_energy_corotational_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r, double* energy) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W)
-    detail::corotational_energy_batch(c, detail::ListedTets<T>(tets + t, int(std::min<std::size_t>(W, r.end - t))), energy);
+    detail::corotational_energy_batch(c, detail::ListedTets<T>(tets, t, int(std::min<std::size_t>(W, r.end - t))), energy);
 }
 
 #define PLIANT_INSTANTIATE(T)                                                                      \

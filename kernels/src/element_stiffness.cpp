@@ -139,12 +139,12 @@ template <class T, class At>
 typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   detail::TetBatch<T> e;
-  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
+  for (int a = 0; a < 4; ++a) at.corners(c, a, e.n[a]);
   // Positions: from the interleaved copy when the context has one (the caller packed it from x
   // just before: the same values the scalar code reads from x), else gathered from x[3][n].
   detail::load_positions(c, e);
   for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < 3; ++k) e.g[a][k] = at.load(c.grad[3 * a + k]);
+    for (int k = 0; k < 3; ++k) e.g[a][k] = at.grad(c, 3 * a + k);
   const Mat3<V> F = detail::corner_gradient(e.x, e.g);
   V q[4];
   for (int k = 0; k < 4; ++k) q[k] = at.load(c.rotation[k]);
@@ -192,7 +192,7 @@ void corotational_ratios(const ElementContext<T>& c, const std::int32_t* ids, Ra
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W) {
     const int count = int(std::min<std::size_t>(W, r.end - t));
-    const auto fast = ids ? corotational_fast_lanes(c, detail::ListedTets<T>(ids + t, count))
+    const auto fast = ids ? corotational_fast_lanes(c, detail::ListedTets<T>(ids, t, count))
                           : corotational_fast_lanes(c, detail::ConsecutiveTets<T>{t, count});
     if (!Ones && !simd::any(~fast)) continue;  // every lane at ratio 1 (lanes past count repeat the last)
     for (int l = 0; l < count; ++l) {

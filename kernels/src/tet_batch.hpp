@@ -39,9 +39,11 @@ __attribute__((always_inline)) inline void load_positions(const ElementContext<T
 // Which tets the lanes of a batch hold, and how their per-tet values are read and written.
 // Lanes past `count` repeat the last tet on load and are not stored (simd::load / simd::store).
 //   ConsecutiveTets: tets [first, first + count) — contiguous loads and stores.
-//   ListedTets: the tets id[0..count) of a list (a multiresolution level's stepped tets, which lie
-//     scattered over its mesh): gathers and one store per lane, so that a batch is full however
-//     short the runs of stepped tets are. A list must not repeat a tet (stores would race).
+//   ListedTets: the tets id[0..count) at positions [first, first + count) of a list (a
+//     multiresolution level's stepped tets, which lie scattered over its mesh): gathers and
+//     scattered stores, so that a batch is full however short the runs of stepped tets are; the
+//     rest data (corner indices, gradients, volumes) loaded from the context's copies in list
+//     order when it has them (ElementContext::listed_tet ...). A list must not repeat a tet.
 // Each lane does the same arithmetic either way: the same bits (tests/kernels/test_kernel_batches.cpp).
 template <class T>
 struct ConsecutiveTets {
@@ -52,11 +54,18 @@ struct ConsecutiveTets {
   V load(const T* p) const { return simd::load(p + first, count); }
   void store(T* p, const V& v) const { simd::store(p + first, count, v); }
   std::size_t tet(int l) const { return first + std::size_t(l); }  // the tet of lane l < count
-  void indices(const std::int32_t* p, std::int32_t out[W]) const {
+  void indices(const std::int32_t* p, std::int32_t out[W]) const { load_indices(p + first, count, out); }
+  // The rest data: corner a's node indices, gradient component q, volume.
+  void corners(const ElementContext<T>& c, int a, std::int32_t out[W]) const { indices(c.tet[a], out); }
+  V grad(const ElementContext<T>& c, int q) const { return load(c.grad[q]); }
+  V volume(const ElementContext<T>& c) const { return load(c.volume); }
+
+  // out[l] = p[min(l, count - 1)]: contiguous indices, lanes past count repeating the last.
+  static void load_indices(const std::int32_t* p, int count, std::int32_t out[W]) {
     if (count == W) {
-      std::memcpy(out, p + first, sizeof(std::int32_t) * W);
+      std::memcpy(out, p, sizeof(std::int32_t) * W);
     } else {
-      for (int l = 0; l < W; ++l) out[l] = p[first + std::size_t(std::min(l, count - 1))];
+      for (int l = 0; l < W; ++l) out[l] = p[std::min(l, count - 1)];
     }
   }
 };
@@ -66,9 +75,11 @@ struct ListedTets {
   using V = typename simd::Pack<T>::V;
   static constexpr int W = simd::Pack<T>::W;
   std::int32_t id[W];
+  std::size_t first;  // the batch's position in the list
   int count;
-  ListedTets(const std::int32_t* ids, int n) : count(n) {
-    for (int l = 0; l < W; ++l) id[l] = ids[std::min(l, n - 1)];
+  // The tets list[first .. first + n) (n <= W).
+  ListedTets(const std::int32_t* list, std::size_t first_position, int n) : first(first_position), count(n) {
+    for (int l = 0; l < W; ++l) id[l] = list[first + std::size_t(std::min(l, n - 1))];
   }
   V load(const T* p) const { return simd::gather(p, id); }
   // Lanes past `count` repeat the last tet and are not stored: the stored lanes are distinct tets.
@@ -81,16 +92,30 @@ struct ListedTets {
       for (int l = 0; l < W; ++l) out[l] = p[id[l]];
     }
   }
+  // The rest data, from the copies in list order when the context has them (the same values).
+  void corners(const ElementContext<T>& c, int a, std::int32_t out[W]) const {
+    if (c.listed_tet[a]) {
+      ConsecutiveTets<T>::load_indices(c.listed_tet[a] + first, count, out);
+    } else {
+      indices(c.tet[a], out);
+    }
+  }
+  V grad(const ElementContext<T>& c, int q) const {
+    return c.listed_grad[q] ? simd::load(c.listed_grad[q] + first, count) : load(c.grad[q]);
+  }
+  V volume(const ElementContext<T>& c) const {
+    return c.listed_volume ? simd::load(c.listed_volume + first, count) : load(c.volume);
+  }
 };
 
 // Loads the batch's corner indices, positions, gradients and volumes.
 template <class T, class At>
 __attribute__((always_inline)) inline void load_batch(const ElementContext<T>& c, const At& at, TetBatch<T>& e) {
-  for (int a = 0; a < 4; ++a) at.indices(c.tet[a], e.n[a]);
+  for (int a = 0; a < 4; ++a) at.corners(c, a, e.n[a]);
   load_positions(c, e);
   for (int a = 0; a < 3; ++a)
-    for (int k = 0; k < 3; ++k) e.g[a][k] = at.load(c.grad[3 * a + k]);
-  e.volume = at.load(c.volume);
+    for (int k = 0; k < 3; ++k) e.g[a][k] = at.grad(c, 3 * a + k);
+  e.volume = at.volume(c);
 }
 
 template <class T>

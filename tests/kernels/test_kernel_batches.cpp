@@ -194,9 +194,11 @@ TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
 // The passes over listed tets (a multiresolution level's stepped tets, scattered over its mesh):
 // each listed tet gets the bits the range pass gives it, in any list order and cut, and no other
 // tet is written. The list skips tets in runs of 1 to 5 (as stepped runs do) and is shuffled, so
-// that lanes of one batch hold tets far apart, and a batch is partial at each cut.
+// that lanes of one batch hold tets far apart, and a batch is partial at each cut. With
+// rest_listed, the rest data comes from copies in list order (ElementContext::listed_tet ...),
+// as a listed level's in the engine.
 template <class T>
-void check_listed(bool damped, bool packed) {
+void check_listed(bool damped, bool packed, bool rest_listed = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> whole(203, 5), listed(203, 5);
     if (damped) {
@@ -213,6 +215,7 @@ void check_listed(bool damped, bool packed) {
     }
     std::mt19937 rng(3);
     std::shuffle(ids.begin(), ids.end(), rng);
+    if (rest_listed) listed.list_rest(ids);
     for (std::size_t i = 0; i < ids.size();) {  // cuts of 7, 13, 1, 32, ... list positions
       static const std::size_t cuts[] = {7, 13, 1, 32, 5, 64, 3};
       const std::size_t e = std::min(ids.size(), i + cuts[i % 7]);
@@ -246,6 +249,13 @@ TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassDouble) {
   check_listed<double>(false, false);
   check_listed<double>(true, false);
   check_listed<double>(true, true);
+}
+TEST(KernelBatches, ListedPassesWithRestDataInListOrderGiveTheSameBits) {
+  for (bool damped : {false, true})
+    for (bool packed : {false, true}) {
+      check_listed<float>(damped, packed, true);
+      check_listed<double>(damped, packed, true);
+    }
 }
 
 // Corner positions read from the interleaved copy (4 loads and a transpose per corner with

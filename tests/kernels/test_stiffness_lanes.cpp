@@ -165,6 +165,10 @@ void check_lanes(std::size_t n, unsigned seed, bool poison) {
     double expect = 1;
     for (std::size_t k = r.begin; k < r.end; ++k) expect = std::max(expect, scalar[std::size_t(ids[k])]);
     EXPECT_EQ(element_stiffness_ratio_corotational_max_listed(m.c, ids.data(), r), expect) << r.begin << ".." << r.end;
+    // The same with the rest data copied in list order (a listed level's, ElementContext::listed_tet ...).
+    m.list_rest(ids);
+    EXPECT_EQ(element_stiffness_ratio_corotational_max_listed(m.c, ids.data(), r), expect) << r.begin << ".." << r.end;
+    m.list_rest({});
     pieces_above += expect > 1;
     i = r.end;
   }

@@ -40,6 +40,26 @@ struct ElementArrays {
     c.mu = T(E / (2 * (1 + nu)));
     c.young = T(E);
   }
+
+  // The rest data of the tets ids in list order, as Simulation::prepare copies a listed level's
+  // (ElementContext::listed_tet, listed_grad, listed_volume), and c pointed at them; an empty list
+  // clears the pointers (the kernels then gather).
+  std::vector<T> listed_volume, listed_grad[9];
+  std::vector<std::int32_t> listed_tet[4];
+  void list_rest(const std::vector<std::int32_t>& ids) {
+    listed_volume.clear();
+    for (auto& g : listed_grad) g.clear();
+    for (auto& a : listed_tet) a.clear();
+    for (const std::int32_t t : ids) {
+      listed_volume.push_back(volume[std::size_t(t)]);
+      for (int q = 0; q < 9; ++q) listed_grad[q].push_back(grad[q][std::size_t(t)]);
+      for (int a = 0; a < 4; ++a) listed_tet[a].push_back(tet[a][std::size_t(t)]);
+    }
+    const bool on = !ids.empty();
+    c.listed_volume = on ? listed_volume.data() : nullptr;
+    for (int q = 0; q < 9; ++q) c.listed_grad[q] = on ? listed_grad[q].data() : nullptr;
+    for (int a = 0; a < 4; ++a) c.listed_tet[a] = on ? listed_tet[a].data() : nullptr;
+  }
 };
 
 }  // namespace pliant::test

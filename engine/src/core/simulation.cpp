@@ -54,6 +54,25 @@ void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
     for (std::size_t t = r.begin; t < r.end; ++t) out.push_back(std::int32_t(t));
 }
 
+// LevelJobState::listed_tet, listed_grad and listed_volume of a listed level, from its list, and
+// its element context pointed at them. O(stepped tets).
+template <class T>
+void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js) {
+  const std::size_t n = js.stepped.size();
+  for (int a = 0; a < 4; ++a) js.listed_tet[a].resize(n);
+  for (int q = 0; q < 9; ++q) js.listed_grad[q].resize(n);
+  js.listed_volume.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto t = std::size_t(js.stepped[i]);
+    for (int a = 0; a < 4; ++a) js.listed_tet[a][i] = L.tet[a][t];
+    for (int q = 0; q < 9; ++q) js.listed_grad[q][i] = L.grad[q][t];
+    js.listed_volume[i] = L.volume[t];
+  }
+  for (int a = 0; a < 4; ++a) js.ec.listed_tet[a] = js.listed_tet[a].data();
+  for (int q = 0; q < 9; ++q) js.ec.listed_grad[q] = js.listed_grad[q].data();
+  js.ec.listed_volume = js.listed_volume.data();
+}
+
 // LevelJobState::gather_offsets and gather_incidence of a listed level, after its node pieces:
 // the entries of its stepped tets, in incidence order, for the nodes of its pieces. O(tets + nodes
 // of the level + entries around its pieces), as prepare() is.
@@ -159,7 +178,10 @@ void Simulation<T>::prepare(double tick_dt) {
       n = last + 1;
     }
     js.end_node_piece = node_pieces_.size();
-    if (!js.stepped.empty()) list_gather_incidence(L, js);
+    if (!js.stepped.empty()) {  // a listed level (its job state at its final address now)
+      list_rest_data(L, js);
+      list_gather_incidence(L, js);
+    }
   }
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
@@ -852,6 +874,11 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
         chunk_max.resize(chunks);
         double* top = chunk_max.data();
         const std::int32_t* ids = listed->data();
+        // The rest data in list order, as the force pass loads it (prepare: made from this list).
+        const ElementContext<T>& job_ec = job_state_[job_of_body_[b] + l].ec;
+        for (int a = 0; a < 4; ++a) ec.listed_tet[a] = job_ec.listed_tet[a];
+        for (int q = 0; q < 9; ++q) ec.listed_grad[q] = job_ec.listed_grad[q];
+        ec.listed_volume = job_ec.listed_volume;
         exec.parallel_for(chunks, 1, [&](Range cr) {
           for (std::size_t i = cr.begin; i < cr.end; ++i)
             top[i] = element_stiffness_ratio_corotational_max_listed(ec, ids, Range{i * grain, std::min(n, (i + 1) * grain)});

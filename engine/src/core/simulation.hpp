@@ -153,6 +153,11 @@ struct LevelJobState {
   // forces are the same bits, and the gather reads a stepped region's entries, not every tet
   // around its nodes (a middle level stepping 342 of its 5 906 tets read about 4x as many).
   AlignedVector<std::int32_t> gather_offsets, gather_incidence;
+  // A listed level's rest data in list order (ElementContext::listed_tet, listed_grad,
+  // listed_volume: ec points at them): its element passes and monitor load them instead of
+  // gathering them from tets scattered over its mesh. Made by prepare() from `stepped`.
+  AlignedVector<std::int32_t> listed_tet[4];
+  AlignedVector<T> listed_grad[9], listed_volume;
 };
 
 // The phases of a tick, in the order they run (Simulation::step): A ghost refresh, the positions
@@ -304,6 +309,7 @@ class Simulation {
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
   std::vector<std::uint8_t> stepped_mark_;  // prepare()'s scratch: 1 for a listed level's stepped tets
   void list_gather_incidence(const Level<T>& L, LevelJobState<T>& js);
+  static void list_rest_data(const Level<T>& L, LevelJobState<T>& js);
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
   // largest tick, then stay).
   std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;

@@ -32,6 +32,15 @@ struct ElementContext {
   T young = 0, spring_damping = 0;
   // Output: the force on each corner, corner_force[3*c + k][tet] (N).
   T* corner_force[12] = {};
+  // Optional, for the passes over a list of tets (the *_listed kernels): the same rest data of
+  // the list's tets in list order, listed_tet[a][i] = tet[a][tets[i]], listed_grad[q][i] =
+  // grad[q][tets[i]], listed_volume[i] = volume[tets[i]], for the list the kernels are given
+  // (a multiresolution level's stepped tets: Simulation::prepare copies them once per change).
+  // A batch then loads them instead of gathering them from tets scattered over the mesh. Null:
+  // gathered. Only the rest data: the rotations and corner forces stay per tet.
+  const std::int32_t* listed_tet[4] = {};
+  const T* listed_grad[9] = {};
+  const T* listed_volume = nullptr;
 };
 
 }  // namespace pliant
