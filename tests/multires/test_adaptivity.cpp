@@ -463,14 +463,13 @@ TEST(Adaptivity, PrescribedMotionsAndRefiningProbesKeepTheirSurroundingsFine) {
   EXPECT_GT(fine_tets_near(true, false, false, 0.1), by_motion);  // a longer reach refines more
 }
 
-TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
-  // A slab's corner pushed: its fine level simulates the nodes around the push. Gathers,
-  // integration and obstacles run over those (and gaps of at most 8 inactive nodes between them),
-  // not the whole level: a 49k-tet organ stepping 86 fine tets near its tool gathered all 10k fine
-  // nodes every tick, as much time as its tets took (docs/adaptivity.md, the guaranteed rate).
-  World w(no_gravity());
+// A slab twice as long as clamped_slab (grid rows of 41 fine nodes, most of them far from the
+// push), one corner pushed 5 mm down over 50 ms with adaptivity's thresholds out of reach, so that
+// only the push refines (by distance): its fine level steps a region around the corner. Added to
+// w and run to the end of the push.
+void push_a_long_slab_corner(World& w) {
   BodyDef b = clamped_slab();
-  b.mesh.max[0] = 0.4;  // twice as long: grid rows of 41 fine nodes, most of them far from the push
+  b.mesh.max[0] = 0.4;
   b.mesh.cells[0] = 20;
   PrescribedMotionDef push;
   push.region.min = {-1, -1, 0.04 - 1e-9};
@@ -481,6 +480,15 @@ TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
   b.multiresolution.active.adapt.coarsen_below = 1e8;
   w.add_body(b);
   while (w.time() < 0.05) w.step();
+}
+
+TEST(Adaptivity, TheNodePassesRunOverTheSimulatedNodesOnly) {
+  // A slab's corner pushed: its fine level simulates the nodes around the push. Gathers,
+  // integration and obstacles run over those (and gaps of at most 8 inactive nodes between them),
+  // not the whole level: a 49k-tet organ stepping 86 fine tets near its tool gathered all 10k fine
+  // nodes every tick, as much time as its tets took (docs/adaptivity.md, the guaranteed rate).
+  World w(no_gravity());
+  push_a_long_slab_corner(w);
   const LevelInfo fine = w.level_info(0, 1), coarse = w.level_info(0, 0);
   std::printf("fine level: %zu nodes, %zu simulated (%zu free or fixed, %zu ghosts), node passes over %zu; coarse: %zu of %zu\n",
               fine.nodes, fine.active_nodes + fine.ghost_nodes, fine.active_nodes, fine.ghost_nodes, fine.pass_nodes,
@@ -508,18 +516,7 @@ TEST(Adaptivity, AListedLevelGathersItsSteppedTetsOnly) {
   // every tet around them (the others' corner forces are zero: a sum that starts at +0 does not
   // change by adding a zero).
   World w(no_gravity());
-  BodyDef b = clamped_slab();
-  b.mesh.max[0] = 0.4;
-  b.mesh.cells[0] = 20;
-  PrescribedMotionDef push;
-  push.region.min = {-1, -1, 0.04 - 1e-9};
-  push.region.max = {0.02 + 1e-9, 1, 1};
-  push.keyframes = {{0.0, {0, 0, 0}}, {0.05, {0, 0, -0.005}}};
-  b.prescribed.push_back(push);
-  b.multiresolution.active.adapt.refine_above = 1e9;
-  b.multiresolution.active.adapt.coarsen_below = 1e8;
-  w.add_body(b);
-  while (w.time() < 0.05) w.step();
+  push_a_long_slab_corner(w);
   const LevelInfo fine = w.level_info(0, 1);
   ASSERT_TRUE(fine.listed);
   ASSERT_GT(fine.stepped_tets, 0u);
