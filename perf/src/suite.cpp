@@ -238,6 +238,30 @@ SceneDef small_body_scene(const std::array<int, 3>& cells, const std::string& na
   return scene;
 }
 
+// The 2k-tet box of small_body_scene in two other arrangements, for what a second core gains on
+// one small body (docs/performance.md, "Small bodies on 2 threads"): standing on end (its long axis
+// along z, the last in the box's node numbering, so that the two threads' halves meet across its
+// smallest face instead of its largest), and as two separate bodies of half its length (no data
+// shared between the halves). The same 2,016 tets each time.
+SceneDef box2k_on_end_scene() {
+  SceneDef scene = small_body_scene({4, 6, 14}, "box2k_on_end");
+  BodyDef& b = scene.bodies[0];
+  b.mesh.max = {0.25, 0.25, 1};
+  b.fixed[0].min = {-1, -1, -1};
+  b.fixed[0].max = {1, 1, 1e-6};  // clamped at its lower end, hanging in gravity along its length
+  return scene;
+}
+SceneDef two_box1k_scene() {
+  SceneDef scene = small_body_scene({7, 6, 4}, "two_box1k_a");
+  scene.bodies[0].mesh.max = {0.5, 0.25, 0.25};
+  BodyDef second = scene.bodies[0];
+  second.name = "two_box1k_b";
+  second.mesh.min = {0, 1, 0};
+  second.mesh.max = {0.5, 1.25, 0.25};
+  scene.bodies.push_back(second);
+  return scene;
+}
+
 // The 100k-tet scene body: the benchmark box, corotational, lightly damped.
 SceneDef body100k_scene(Precision p) {
   SceneDef scene;
@@ -465,6 +489,11 @@ void run_suite(const SuiteOptions& o, const std::function<void(const Record&)>& 
                                          {"box4k", {20, 8, 4}}}) {                                          // 3,840
         s.say(fmt::format("scene {}, {} thread(s)", label, threads));
         scene_case(s, label, small_body_scene(cells, label), threads, o.quick ? 1000 : 10000);
+      }
+      for (const auto& [label, scene] : {std::pair<const char*, SceneDef>{"box2k_on_end", box2k_on_end_scene()},
+                                         {"two_box1k", two_box1k_scene()}}) {
+        s.say(fmt::format("scene {}, {} thread(s)", label, threads));
+        scene_case(s, label, scene, threads, o.quick ? 1000 : 10000);
       }
       for (Precision p : {Precision::float32, Precision::float64}) {
         s.say(fmt::format("scene body100k {}, {} thread(s)", to_string(p), threads));
