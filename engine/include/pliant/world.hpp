@@ -140,7 +140,8 @@ class World {
 
   // Zero-copy access to a level's arrays, in the BODY frame (positions relative to
   // body_origin(body)). T must match the world's precision (else InputError). Positions and
-  // velocities may be written between steps (initial conditions, body frame); sizes must not change.
+  // velocities may be written between steps (initial conditions, body frame); sizes must not change,
+  // nor the rest data (tet, grad, volume: the step keeps copies of a listed level's, made at load).
   template <class T>
   Level<T>& level(BodyId body, int level = 0);
   template <class T>
