@@ -347,12 +347,137 @@ bool incidence_order(const BoxSize& size, int samples) {
   return same;
 }
 
+
+// 4. "blocked": the whole step of a large body (pack, element pass, fused gather + integrate) as
+//    one region of three phases, against the same passes cut into blocks of `block` tets: the
+//    element pass over block k, then the gather + integrate of the nodes whose tets all lie in
+//    blocks <= k (a prefix of the node order), so that the corner forces are summed while they are
+//    still in cache. Same kernels, same sums in the same order: the same bits.
+template <class T>
+struct BlockedCase {
+  ElementContext<T> ec;
+  PackContext<T> pk;
+  GatherContext<T> gc;
+  IntegrateContext<T> ic;
+  void (*pass)(const ElementContext<T>&, Range);
+};
+template <class T>
+struct Offset {
+  const BlockedCase<T>* c;
+  std::size_t first;
+};
+template <class T>
+void blk_pack(const void* p, Range r) {
+  const auto& o = *static_cast<const Offset<T>*>(p);
+  pack_positions(o.c->pk, r);
+}
+template <class T>
+void blk_element(const void* p, Range r) {
+  const auto& o = *static_cast<const Offset<T>*>(p);
+  o.c->pass(o.c->ec, Range{o.first + r.begin, o.first + r.end});
+}
+template <class T>
+bool blk_nodes(const void* p, Range r) {
+  const auto& o = *static_cast<const Offset<T>*>(p);
+  return gather_integrate_symplectic_euler(o.c->gc, o.c->ic, Range{o.first + r.begin, o.first + r.end});
+}
+
+template <class T>
+void blocked_vs_whole(const BoxSize& size, Precision p, int threads, int samples, std::size_t block) {
+  World w = make_box_world(ForceModel::corotational, p, threads, size.cells, Order::grid);
+  Level<T>& L = w.level<T>(0);
+  const std::size_t nt = L.tet_count, nn = L.node_count;
+  Executor ex(threads);
+  BlockedCase<T> c;
+  c.ec = element_context(L);
+  c.pk = pack_context(L);
+  const bool packed = pack_pays(L, nt);
+  use_packed(c.ec, c.pk, packed);
+  c.pass = force_kernel<T>(L.model);
+  c.gc = gather_context(L);
+  c.ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());
+  // last[n]: the last tet around node n; node_end[k]: the nodes below it have all their tets in blocks <= k.
+  std::vector<std::size_t> last(nn, 0);
+  for (std::size_t n = 0; n < nn; ++n)
+    for (auto e = L.incidence_offsets[n]; e < L.incidence_offsets[n + 1]; ++e)
+      last[n] = std::max(last[n], std::size_t(L.incidence[std::size_t(e)] >> 2));
+  const std::size_t blocks = (nt + block - 1) / block;
+  std::vector<std::size_t> node_end(blocks, nn);
+  {
+    std::size_t n = 0;
+    for (std::size_t k = 0; k + 1 < blocks; ++k) {
+      const std::size_t bound = (k + 1) * block;
+      while (n < nn && last[n] < bound) ++n;
+      node_end[k] = n;
+    }
+  }
+  const int th = ex.threads();
+  std::vector<Offset<T>> offs;
+  offs.reserve(2 * blocks + 4);
+  std::vector<Executor::Segment> segs;
+  std::vector<Executor::PredicateSegment> preds;
+  segs.reserve(blocks + 4);
+  preds.reserve(blocks + 4);
+  // Whole: pack, element, nodes.
+  offs.push_back({&c, 0});
+  const Offset<T>* whole = &offs.back();
+  segs.push_back({nn, tick_grain(nn, kTickNodeChunk, kNodeGrain, th), &blk_pack<T>, whole});
+  segs.push_back({nt, tick_grain(nt, kTickTetChunk, kTetGrain, th), &blk_element<T>, whole});
+  preds.push_back({nn, tick_grain(nn, kTickNodeChunk, kNodeGrain, th), &blk_nodes<T>, whole});
+  Executor::Phase whole_phases[3] = {{&segs[0], packed ? 1u : 0u, nullptr, 0}, {&segs[1], 1, nullptr, 0}, {nullptr, 0, &preds[0], 1}};
+  // Blocked.
+  std::vector<Executor::Phase> bph;
+  bph.push_back({&segs[0], packed ? 1u : 0u, nullptr, 0});
+  std::size_t nb = 0;
+  for (std::size_t k = 0; k < blocks; ++k) {
+    const std::size_t t0 = k * block, t1 = std::min(nt, t0 + block);
+    offs.push_back({&c, t0});
+    segs.push_back({t1 - t0, tick_grain(t1 - t0, kTickTetChunk, kTetGrain, th), &blk_element<T>, &offs.back()});
+    bph.push_back({&segs.back(), 1, nullptr, 0});
+    const std::size_t n1 = node_end[k];
+    if (n1 > nb) {
+      offs.push_back({&c, nb});
+      preds.push_back({n1 - nb, tick_grain(n1 - nb, kTickNodeChunk, kNodeGrain, th), &blk_nodes<T>, &offs.back()});
+      bph.push_back({nullptr, 0, &preds.back(), 1});
+      nb = n1;
+    }
+  }
+  std::vector<double> tw, tb, ratio;
+  for (int i = 0; i < samples + 2; ++i) {
+    auto t = Clock::now();
+    ex.run_phases(whole_phases, 3);
+    const double a = since(t);
+    ex.run_phases(bph.data(), bph.size());
+    const double b2 = since(t);
+    if (i < 2) continue;
+    tw.push_back(a);
+    tb.push_back(b2);
+    ratio.push_back(b2 / a);
+  }
+  const double k = 1e9 / double(nt);
+  std::printf("%s tets, %s, %d thread(s), blocks of %zu tets (%zu phases): whole step ns/tet, median [min - max] of %d\n",
+              size.label, p == Precision::float32 ? "float" : "double", th, block, bph.size(), samples);
+  print("whole passes", stat(tw, k));
+  print("blocked", stat(tb, k));
+  print("  ratio blocked / whole (per pair)", stat(ratio, 1.0));
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   const int samples = argc > 1 ? std::atoi(argv[1]) : 41;
   const std::string only = argc > 2 ? argv[2] : "";
   bool ok = true;
+  if (only == "blocked") {
+    const std::size_t block = argc > 3 ? std::size_t(std::atol(argv[3])) : 32768;
+    for (const auto& size : standard_sizes()) {
+      if (std::string(size.label) == "1k" || std::string(size.label) == "10k") continue;
+      for (int threads : {1, 2}) {
+        blocked_vs_whole<float>(size, Precision::float32, threads, samples, block);
+        blocked_vs_whole<double>(size, Precision::float64, threads, samples, block);
+      }
+    }
+    return 0;
+  }
   for (const auto& size : standard_sizes()) {
     if (std::string(size.label) != "10k" && std::string(size.label) != "100k") continue;
     if (only.empty() || only == "packed")
