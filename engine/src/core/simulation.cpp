@@ -574,7 +574,7 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // The energy before is measured only where the decisions change something (most decision
     // points change nothing, and it reads every stepped tet).
     double e_before = 0;
-    if (!adapt_body(body, t + h, near, [&] { e_before = body_energy(body); })) {
+    if (!adapt_body(body, t + h, near, [&] { e_before = body_energy(body); }, &exec)) {
       clock_check();
       continue;
     }

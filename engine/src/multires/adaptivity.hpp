@@ -18,6 +18,7 @@
 #include "activation.hpp"
 #include "apply_changes.hpp"
 #include "pliant/hierarchy.hpp"
+#include "pliant/scheduler/executor.hpp"
 
 namespace pliant::detail {
 
@@ -70,6 +71,8 @@ struct AdaptiveState {
   struct Scratch {
     std::vector<std::vector<double>> x, v;                        // per level x 3: every node's position, velocity now
     std::vector<std::array<double, 9>> F;                         // per tet of one level: F, written for stepped tets
+    std::vector<std::int32_t> ids;                                 // one level's stepped tets, in run order
+    std::vector<double> chunk_peak;                                // per chunk of ids: its largest squared strain
     std::vector<std::vector<double>> measure;                     // per level but the finest: per node
     std::vector<std::vector<std::array<double, 7>>> restricted;   // per level but the finest (restrict_field)
     // The state the last undoable change started from, per level: the bytes of x, v (3 arrays
@@ -121,9 +124,11 @@ struct NearShape {
 // `before_change`, if given, is called once, after the decisions and before the first change to
 // the body (when there is one): the caller's measurements of the state as it was (the energy give-back
 // of Simulation::step) are taken only at decision points that change something.
+// `exec`, if given, computes the deformation gradients of the measure on its threads (the same
+// bits as without: each tet's on its own, the peak a maximum).
 template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near = {},
-                const std::function<void()>& before_change = {});
+                const std::function<void()>& before_change = {}, Executor* exec = nullptr);
 
 // Undoes the last change adapt_body applied (it must be `undoable`): the activation and every
 // node's position, velocity and mass are made what they were before it, to the bit, and it is
