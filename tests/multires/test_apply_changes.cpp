@@ -464,5 +464,55 @@ TEST(ApplyChanges, AnUndoneChangeLeavesTheBodyAsItWasToTheBit) {
   EXPECT_GT(non_nested.merges, 0);
 }
 
+
+// adapt_body's measure on an executor's threads (chunks of 256 stepped tets) decides as on one: the
+// same peak strain to the bit, the same decisions, the same body after them. The coarser level of
+// this bar steps 1 536 tets: 6 chunks.
+TEST(ApplyChanges, TheMeasureOnTwoThreadsDecidesAsOnOne) {
+  const BodyDef def = bar({32, 8, 8}, 2, 2);
+  Executor two(2);
+  Adaptive serial(def), threaded(def);
+  for (Adaptive* a : {&serial, &threaded}) {
+    a->body.adapt = make_adaptive_state(std::shared_ptr<const Hierarchy>(&a->h, [](const Hierarchy*) {}),
+                                        def.multiresolution.active, a->body);
+    ASSERT_GT(a->body.levels[0].stepped_count, 5u * 256u);
+  }
+  // A bump of 1 cm about x = c, every node moving (the same on both bodies).
+  auto bend = [&](Adaptive& a, double c) {
+    for (auto& L : a.body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i) {
+        const double d = (L.X[0][i] - c) / (0.125 * def.mesh.max[0]);
+        for (int k = 0; k < 3; ++k) L.x[k][i] = L.X[k][i];
+        L.x[1][i] += 0.01 * std::exp(-d * d);
+        for (int k = 0; k < 3; ++k) L.v[k][i] = 0.01 * std::sin(double(i) + k);
+      }
+  };
+  int changes = 0;
+  for (int round = 0; round < 3; ++round) {
+    const double c = (0.25 + 0.25 * round) * def.mesh.max[0], t = 0.01 * round;
+    bend(serial, c);
+    bend(threaded, c);
+    const bool a = adapt_body(serial.body, t);
+    const bool b = adapt_body(threaded.body, t, {}, {}, &two);
+    ASSERT_EQ(a, b) << round;
+    changes += a;
+    const AdaptiveState& sa = *serial.body.adapt;
+    const AdaptiveState& sb = *threaded.body.adapt;
+    EXPECT_GT(sa.peak_strain, 0.0);
+    EXPECT_EQ(std::memcmp(&sa.peak_strain, &sb.peak_strain, sizeof(double)), 0) << round;
+    ASSERT_EQ(sa.decided.size(), sb.decided.size()) << round;
+    for (std::size_t i = 0; i < sa.decided.size(); ++i) {
+      EXPECT_EQ(sa.decided[i].node, sb.decided[i].node);
+      EXPECT_EQ(sa.decided[i].to, sb.decided[i].to);
+    }
+    for (std::size_t l = 0; l < serial.body.levels.size(); ++l)
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_TRUE(same_bits(serial.body.levels[l].x[k], threaded.body.levels[l].x[k])) << round << " " << l;
+        EXPECT_TRUE(same_bits(serial.body.levels[l].v[k], threaded.body.levels[l].v[k])) << round << " " << l;
+      }
+  }
+  EXPECT_GT(changes, 0);
+}
+
 }  // namespace
 }  // namespace pliant::detail
