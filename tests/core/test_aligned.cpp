@@ -4,7 +4,11 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <cstdlib>
+#include <fstream>
 #include <set>
+#include <sstream>
+#include <string>
 #include <vector>
 
 #include "pliant/aligned.hpp"
@@ -50,6 +54,43 @@ TEST(Aligned, LargeArraysAreStaggeredAfterAHugePageAndUsableToTheirEnd) {
   for (int i = 0; i < 1 << 20; ++i) grown.push_back(float(i));  // reallocations across the threshold
   EXPECT_EQ(grown[123456], 123456.0f);
 }
+
+
+#if defined(__linux__)
+// The VmFlags of the mapping that holds address p (/proc/self/smaps), empty if none.
+std::string vm_flags_at(const void* p) {
+  std::ifstream smaps("/proc/self/smaps");
+  std::string line, flags;
+  bool inside = false;
+  while (std::getline(smaps, line)) {
+    unsigned long lo = 0, hi = 0;
+    char dash = 0;
+    std::istringstream head(line);
+    if (head >> std::hex >> lo >> dash >> hi && dash == '-') {
+      inside = address(p) >= lo && address(p) < hi;
+      continue;
+    }
+    if (inside && line.rfind("VmFlags:", 0) == 0) return line;
+  }
+  return flags;
+}
+
+// A large array is advised MADV_HUGEPAGE (VmFlags "hg"), unless PLIANT_HUGE_PAGES=0 withholds it.
+TEST(Aligned, LargeArraysAskForHugePagesUnlessTheEnvironmentSaysNo) {
+  if (!std::ifstream("/sys/kernel/mm/transparent_hugepage/enabled")) GTEST_SKIP() << "SKIPPED: this kernel has no transparent huge pages";
+  unsetenv("PLIANT_HUGE_PAGES");
+  AlignedVector<float> advised(kHugePage, 1.0f);
+  const std::string with = vm_flags_at(advised.data() + advised.size() / 2);
+  ASSERT_FALSE(with.empty());
+  EXPECT_NE(with.find(" hg"), std::string::npos) << with;
+  setenv("PLIANT_HUGE_PAGES", "0", 1);
+  AlignedVector<float> plain(kHugePage, 1.0f);
+  const std::string without = vm_flags_at(plain.data() + plain.size() / 2);
+  unsetenv("PLIANT_HUGE_PAGES");
+  ASSERT_FALSE(without.empty());
+  EXPECT_EQ(without.find(" hg"), std::string::npos) << without;
+}
+#endif
 
 }  // namespace
 }  // namespace pliant

@@ -11,13 +11,17 @@
 //   address (bits 21-24), so that arrays read at the same index (a tet's 4 corner, 9 gradient, 4
 //   rotation arrays and its volume) do not all fall in the same cache set: with every array on a
 //   2 MiB boundary they would, and a 16-way L2 cannot hold 18 streams of one set.
-// Cost: each such array takes its size + 65 KiB rounded up to whole 2 MiB pages (at most 2 MiB
-// more, and under THP the last page is resident whole). Measured (perf/layout_ab blocked, Xeon
-// KVM guest, 1M-tet box, whole step): docs/performance.md, "Huge pages". Results are the same bits:
-// only addresses change.
+// Cost: each such array takes its size + 65 KiB rounded up to whole 2 MiB pages, all resident under
+// THP (at most 2 MiB more each). Measured (peak resident size of `pliant run` of a box, Xeon guest,
+// THP madvise): 150k tets 97 -> 147 MB in float, 118 -> 155 MB in double (arrays of 0.6-1.2 MB
+// each fill a huge page); 1M tets 327 -> 347 MB and 462 -> 481 MB; without THP, or with
+// PLIANT_HUGE_PAGES=0 in the environment, nothing. Speed (perf/layout_ab blocked, whole step):
+// docs/performance.md, "Huge pages". Results are the same bits: only addresses change.
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <cstdlib>
+#include <cstring>
 #include <new>
 #include <vector>
 
@@ -50,7 +54,11 @@ inline void* HugeArrays::allocate(std::size_t bytes) {
   const std::size_t size = footprint(bytes);
   void* base = ::operator new(size, std::align_val_t{kHugePage});
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-  (void)::madvise(base, size, MADV_HUGEPAGE);  // advice only: without THP the array keeps small pages
+  // Advice only: without THP the array keeps small pages. PLIANT_HUGE_PAGES=0 in the environment
+  // withholds it (read at each large allocation: they are few), for a host that wants the memory
+  // back more than the speed (the cost, measured, is at the top of this file).
+  const char* env = std::getenv("PLIANT_HUGE_PAGES");
+  if (!env || std::strcmp(env, "0") != 0) (void)::madvise(base, size, MADV_HUGEPAGE);
 #endif
   const std::size_t k = (reinterpret_cast<std::uintptr_t>(base) / kHugePage) & 15u;
   return static_cast<char*>(base) + k * kStaggerStep;
