@@ -54,11 +54,13 @@ inline void* HugeArrays::allocate(std::size_t bytes) {
   const std::size_t size = footprint(bytes);
   void* base = ::operator new(size, std::align_val_t{kHugePage});
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
-  // Advice only: without THP the array keeps small pages. PLIANT_HUGE_PAGES=0 in the environment
-  // withholds it (read at each large allocation: they are few), for a host that wants the memory
-  // back more than the speed (the cost, measured, is at the top of this file).
+  // Advice only: without THP the array keeps small pages. PLIANT_HUGE_PAGES=0 (or off, false, no)
+  // in the environment withholds it (read at each large allocation: they are few), for a host that
+  // wants the memory more than the speed (the cost, measured, is at the top of this file).
   const char* env = std::getenv("PLIANT_HUGE_PAGES");
-  if (!env || std::strcmp(env, "0") != 0) (void)::madvise(base, size, MADV_HUGEPAGE);
+  const bool withheld = env && (std::strcmp(env, "0") == 0 || std::strcmp(env, "off") == 0 ||
+                                std::strcmp(env, "false") == 0 || std::strcmp(env, "no") == 0);
+  if (!withheld) (void)::madvise(base, size, MADV_HUGEPAGE);
 #endif
   const std::size_t k = (reinterpret_cast<std::uintptr_t>(base) / kHugePage) & 15u;
   return static_cast<char*>(base) + k * kStaggerStep;
