@@ -244,30 +244,43 @@ void listed_vs_range(const BoxSize& size, Precision p, bool damped, int samples)
   for (int a = 0; a < 4; ++a) in_order.listed_tet[a] = tet_copy[a].data();
   for (int q = 0; q < 9; ++q) in_order.listed_grad[q] = grad_copy[q].data();
   in_order.listed_volume = volume_copy.data();
-  std::vector<double> listed, ordered, range, ratio, ratio_ordered;
+  // And its corner forces stored by list position (ElementContext::listed_corner_forces), as the
+  // step keeps a listed level's since 2026-11-26.
+  ElementContext<T> by_position = in_order;
+  CornerForceArrays<T> listed_forces;
+  listed_forces.assign(ids.size(), T(0));
+  for (int q = 0; q < 12; ++q) by_position.corner_force[q] = listed_forces[q].data();
+  by_position.listed_corner_forces = true;
+  std::vector<double> listed, ordered, positioned, range, ratio, ratio_ordered, ratio_positioned;
   for (int i = 0; i < samples + 3; ++i) {
     auto t = Clock::now();
     element_forces_corotational_listed(ec, ids.data(), all);
     const double a = since(t);
     element_forces_corotational_listed(in_order, ids.data(), all);
     const double b2 = since(t);
+    element_forces_corotational_listed(by_position, ids.data(), all);
+    const double d = since(t);
     element_forces_corotational(ec, all);
     const double c = since(t);
     if (i < 3) continue;
     listed.push_back(a);
     ordered.push_back(b2);
+    positioned.push_back(d);
     range.push_back(c);
     ratio.push_back(a / c);
     ratio_ordered.push_back(b2 / c);
+    ratio_positioned.push_back(d / c);
   }
   const double k = 1e9 / double(ids.size());
   std::printf("%s tets, %s, %s, 1 thread, %zu listed tets (runs of 4 in every 16): ns/tet, median [min - max] of %d\n",
               size.label, p == Precision::float32 ? "float" : "double", damped ? "damped" : "undamped", ids.size(), samples);
   print("element, listed tets", stat(listed, k));
   print("element, listed, rest data in order", stat(ordered, k));
+  print("element, listed, + forces by position", stat(positioned, k));
   print("element, as many consecutive tets", stat(range, k));
   print("  ratio listed / range (per pair)", stat(ratio, 1.0));
   print("  ratio in order / range (per pair)", stat(ratio_ordered, 1.0));
+  print("  ratio by position / range (per pair)", stat(ratio_positioned, 1.0));
 }
 
 bool incidence_order(const BoxSize& size, int samples) {

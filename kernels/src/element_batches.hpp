@@ -144,7 +144,7 @@ __attribute__((always_inline)) inline void springs_batch(const ElementContext<T>
     }
   }
   for (int a = 0; a < 4; ++a)
-    for (int k = 0; k < 3; ++k) at.store(c.corner_force[3 * a + k], f[a][k]);
+    for (int k = 0; k < 3; ++k) at.store_force(c.corner_force[3 * a + k], f[a][k]);
 }
 
 // ---- corotational elastic energy --------------------------------------------------------------
@@ -190,7 +190,7 @@ template <class Model, class T, bool Damped>
 void listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W)
-    Model::template batch<T, Damped>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t))));
+    Model::template batch<T, Damped>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t)), c.listed_corner_forces));
 }
 
 }  // namespace pliant::detail

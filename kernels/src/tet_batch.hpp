@@ -53,6 +53,7 @@ struct ConsecutiveTets {
   int count;
   V load(const T* p) const { return simd::load(p + first, count); }
   void store(T* p, const V& v) const { simd::store(p + first, count, v); }
+  void store_force(T* p, const V& v) const { store(p, v); }  // corner forces: per tet
   std::size_t tet(int l) const { return first + std::size_t(l); }  // the tet of lane l < count
   void indices(const std::int32_t* p, std::int32_t out[W]) const { load_indices(p + first, count, out); }
   // The rest data: corner a's node indices, gradient component q, volume.
@@ -77,13 +78,24 @@ struct ListedTets {
   std::int32_t id[W];
   std::size_t first;  // the batch's position in the list
   int count;
+  bool forces_in_order = false;  // corner forces by list position (ElementContext::listed_corner_forces)
   // The tets list[first .. first + n) (n <= W).
-  ListedTets(const std::int32_t* list, std::size_t first_position, int n) : first(first_position), count(n) {
+  ListedTets(const std::int32_t* list, std::size_t first_position, int n, bool forces_by_position = false)
+      : first(first_position), count(n), forces_in_order(forces_by_position) {
     for (int l = 0; l < W; ++l) id[l] = list[first + std::size_t(std::min(l, n - 1))];
   }
   V load(const T* p) const { return simd::gather(p, id); }
   // Lanes past `count` repeat the last tet and are not stored: the stored lanes are distinct tets.
   void store(T* p, const V& v) const { simd::scatter<T>(p, id, count, v); }
+  // Corner forces: at the batch's list positions when the context keeps them in list order (one
+  // vector store), else scattered to its tets.
+  void store_force(T* p, const V& v) const {
+    if (forces_in_order) {
+      simd::store(p + first, count, v);
+    } else {
+      store(p, v);
+    }
+  }
   std::size_t tet(int l) const { return std::size_t(id[l]); }  // the tet of lane l < count
   void indices(const std::int32_t* p, std::int32_t out[W]) const {
     if constexpr (W % simd::native::kNativeInts == 0) {
@@ -134,11 +146,11 @@ __attribute__((always_inline)) inline void store_corner_forces_batch(const Eleme
   for (int a = 0; a < 3; ++a) {
     for (int i = 0; i < 3; ++i) {
       const V fi = -volume * dot3(P.m[i][0], g[a][0], P.m[i][1], g[a][1], P.m[i][2], g[a][2]);
-      at.store(c.corner_force[3 * (a + 1) + i], fi);
+      at.store_force(c.corner_force[3 * (a + 1) + i], fi);
       f0[i] -= fi;
     }
   }
-  for (int i = 0; i < 3; ++i) at.store(c.corner_force[i], f0[i]);
+  for (int i = 0; i < 3; ++i) at.store_force(c.corner_force[i], f0[i]);
 }
 
 // extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing

@@ -866,5 +866,30 @@ TEST(Api, PositionSpansAreZeroCopyViewsOfTheLevel) {
   }
 }
 
+TEST(World, CornerForcesOfAWholeLevelAreItsCornerForceArrays) {
+  // A one-level body steps by runs: World::corner_forces reads Level::corner_force, and a tet out
+  // of range is refused by name (the listed case: Adaptivity.AListedLevelGathersItsSteppedTetsOnly).
+  World w;
+  w.add_body(beam_def(ForceModel::corotational));
+  for (int i = 0; i < 3; ++i) w.step();
+  const Level<double>& L = w.level<double>(0);
+  bool any = false;
+  for (std::size_t t = 0; t < L.tet_count; ++t) {
+    const auto cf = w.corner_forces(0, 0, t);
+    for (int c = 0; c < 4; ++c)
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_EQ(cf[std::size_t(c)][std::size_t(k)], L.corner_force[3 * c + k][t]) << "tet " << t;
+        any |= cf[std::size_t(c)][std::size_t(k)] != 0;
+      }
+  }
+  EXPECT_TRUE(any);
+  try {
+    w.corner_forces(0, 0, L.tet_count);
+    ADD_FAILURE() << "a tet out of range was accepted";
+  } catch (const InputError& e) {
+    EXPECT_THAT(e.what(), ::testing::HasSubstr(fmt::format("tet {} of level 0", L.tet_count)));
+  }
+}
+
 }  // namespace
 }  // namespace pliant

@@ -197,8 +197,10 @@ TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
 // that lanes of one batch hold tets far apart, and a batch is partial at each cut. With
 // rest_listed, the rest data comes from copies in list order (ElementContext::listed_tet ...),
 // as a listed level's in the engine.
+// forces_listed: the corner forces stored by list position (ElementContext::listed_corner_forces,
+// as a listed level of the step keeps them), each the bits of its tet's in the range pass.
 template <class T>
-void check_listed(bool damped, bool packed, bool rest_listed = false) {
+void check_listed(bool damped, bool packed, bool rest_listed = false, bool forces_listed = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> whole(203, 5), listed(203, 5);
     if (damped) {
@@ -216,6 +218,7 @@ void check_listed(bool damped, bool packed, bool rest_listed = false) {
     std::mt19937 rng(3);
     std::shuffle(ids.begin(), ids.end(), rng);
     if (rest_listed) listed.list_rest(ids);
+    listed.c.listed_corner_forces = forces_listed;
     for (std::size_t i = 0; i < ids.size();) {  // cuts of 7, 13, 1, 32, ... list positions
       static const std::size_t cuts[] = {7, 13, 1, 32, 5, 64, 3};
       const std::size_t e = std::min(ids.size(), i + cuts[i % 7]);
@@ -226,7 +229,9 @@ void check_listed(bool damped, bool packed, bool rest_listed = false) {
     const Strip<T> fresh(203, 5);  // the warm starts before any pass
     for (std::size_t t = 0; t < listed.nt; ++t) {
       for (int q = 0; q < 12; ++q) {
-        const T expect = in[t] ? whole.cf[q][t] : T(0);
+        // By list position t (after the list: untouched), or by tet.
+        const T expect = forces_listed ? (t < ids.size() ? whole.cf[q][std::size_t(ids[t])] : T(0))
+                                       : in[t] ? whole.cf[q][t] : T(0);
         EXPECT_EQ(std::memcmp(&listed.cf[q][t], &expect, sizeof(T)), 0) << "model " << int(m) << " tet " << t << " component " << q;
       }
       for (int k = 0; k < 4; ++k) {
@@ -255,6 +260,14 @@ TEST(KernelBatches, ListedPassesWithRestDataInListOrderGiveTheSameBits) {
     for (bool packed : {false, true}) {
       check_listed<float>(damped, packed, true);
       check_listed<double>(damped, packed, true);
+    }
+}
+
+TEST(KernelBatches, ListedPassesStoringForcesByListPositionGiveTheSameBits) {
+  for (bool damped : {false, true})
+    for (bool packed : {false, true}) {
+      check_listed<float>(damped, packed, true, true);
+      check_listed<double>(damped, packed, true, true);
     }
 }
 

@@ -521,15 +521,25 @@ TEST(Adaptivity, AListedLevelGathersItsSteppedTetsOnly) {
   ASSERT_TRUE(fine.listed);
   ASSERT_GT(fine.stepped_tets, 0u);
   EXPECT_EQ(fine.gather_entries, 4 * fine.stepped_tets);
-  // The finest level's window ends on every tick: its corner forces are the ones its last gather summed.
+  // The finest level's window ends on every tick: its corner forces are the ones its last gather
+  // summed (kept by the step in list order: World::corner_forces reads them by tet).
   const Level<double>& L = w.level<double>(0, 1);
-  std::size_t every_tet_around = 0, checked = 0;
+  std::size_t every_tet_around = 0, checked = 0, nonzero_tets = 0;
+  for (std::size_t t = 0; t < L.tet_count; ++t) {
+    const auto cf = w.corner_forces(0, 1, t);
+    bool any = false;
+    for (const auto& c : cf) any |= c[0] != 0 || c[1] != 0 || c[2] != 0;
+    nonzero_tets += any;
+  }
+  EXPECT_GT(nonzero_tets, fine.stepped_tets / 2);  // stepped tets carry forces; the others none
+  EXPECT_LE(nonzero_tets, fine.stepped_tets);
   for (std::size_t n = 0; n < L.node_count; ++n) {
     if (L.state[n] == kNodeInactive) continue;
     double f[3] = {0, 0, 0};
     for (auto e = L.incidence_offsets[n]; e < L.incidence_offsets[n + 1]; ++e) {
       const std::int32_t code = L.incidence[std::size_t(e)];
-      for (int k = 0; k < 3; ++k) f[k] += L.corner_force[std::size_t(3 * (code & 3) + k)][std::size_t(code >> 2)];
+      const auto cf = w.corner_forces(0, 1, std::size_t(code >> 2));
+      for (int k = 0; k < 3; ++k) f[k] += double(cf[std::size_t(code & 3)][std::size_t(k)]);
     }
     every_tet_around += std::size_t(L.incidence_offsets[n + 1] - L.incidence_offsets[n]);
     for (int k = 0; k < 3; ++k) EXPECT_EQ(std::memcmp(&f[k], &L.f[k][n], sizeof(double)), 0) << "node " << n << ", component " << k;

@@ -37,7 +37,10 @@ struct Level {
   AlignedVector<T> volume;           // rest volume (m^3)
   AlignedVector<T> grad[9];          // rest gradients of phi_1..3 (1/m), rows of Dm^-1
   AlignedVector<T> rotation[4];      // corotational: element rotation quaternion (w,x,y,z); empty otherwise
-  CornerForceArrays<T> corner_force; // per-tet corner forces of the element pass (N), [3c + k][tet], one block
+  // Per-tet corner forces of the element pass (N), [3c + k][tet], one block. A level whose step
+  // lists its stepped tets (LevelInfo::listed) keeps theirs in the step's own arrays, in list
+  // order, and does not write them here; zero for the tets a level does not step.
+  CornerForceArrays<T> corner_force;
 
   // ---- incidence and surface ----
   AlignedVector<std::int32_t> incidence_offsets;  // node_count + 1

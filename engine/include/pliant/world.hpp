@@ -123,6 +123,11 @@ class World {
   const TickStats& tick_stats() const;
   std::size_t node_count(BodyId body, int level = 0) const;
   std::size_t tet_count(BodyId body, int level = 0) const;
+  // The forces (N) the level's last element pass put on the four corners of `tet`, [corner][x y z];
+  // zero for a tet the level does not step. Level::corner_force holds the same for a level stepped
+  // by runs; a listed level (LevelInfo::listed) keeps its own in list order, and this reads them.
+  // InputError for a tet out of range.
+  std::array<Vec3d, 4> corner_forces(BodyId body, int level, std::size_t tet) const;
   // What loading did to the body's mesh: non-tetrahedral cells skipped, inverted tets re-oriented,
   // unused vertices dropped (all zero for a clean mesh).
   const MeshLoadReport& mesh_load_report(BodyId body) const;

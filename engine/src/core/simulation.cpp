@@ -71,15 +71,24 @@ void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js) {
   for (int a = 0; a < 4; ++a) js.ec.listed_tet[a] = js.listed_tet[a].data();
   for (int q = 0; q < 9; ++q) js.ec.listed_grad[q] = js.listed_grad[q].data();
   js.ec.listed_volume = js.listed_volume.data();
+  // The corner forces by list position, zero until the level's first element pass writes them
+  // (its gather runs on the ticks it steps, after that pass).
+  js.listed_corner_force.assign(n, T(0));
+  for (int q = 0; q < 12; ++q) {
+    js.ec.corner_force[q] = js.listed_corner_force[q].data();
+    js.gc.corner_force[q] = js.listed_corner_force[q].data();
+  }
+  js.ec.listed_corner_forces = true;
 }
 
 // LevelJobState::gather_offsets and gather_incidence of a listed level, after its node pieces:
-// the entries of its stepped tets, in incidence order, for the nodes of its pieces. O(tets + nodes
-// of the level + entries around its pieces), as prepare() is.
+// the entries of its stepped tets, in incidence order, for the nodes of its pieces, each coded
+// 4 x (the tet's list position) + corner, as its corner forces are stored (list_rest_data).
+// O(tets + nodes of the level + entries around its pieces), as prepare() is.
 template <class T>
 void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& js) {
-  stepped_mark_.assign(L.tet_count, 0);
-  for (const std::int32_t t : js.stepped) stepped_mark_[std::size_t(t)] = 1;
+  list_position_.assign(L.tet_count, 0);
+  for (std::size_t i = 0; i < js.stepped.size(); ++i) list_position_[std::size_t(js.stepped[i])] = std::int32_t(i + 1);
   js.gather_offsets.assign(L.node_count + 1, 0);
   js.gather_incidence.clear();
   auto& out = js.gather_incidence;
@@ -90,7 +99,8 @@ void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& j
     for (; n < piece.first + piece.count; ++n) {
       for (auto e = L.incidence_offsets[n]; e < L.incidence_offsets[n + 1]; ++e) {
         const std::int32_t code = L.incidence[std::size_t(e)];  // 4 * tet + corner
-        if (stepped_mark_[std::size_t(code >> 2)]) out.push_back(code);
+        const std::int32_t at = list_position_[std::size_t(code >> 2)];
+        if (at > 0) out.push_back(4 * (at - 1) + (code & 3));
       }
       js.gather_offsets[n + 1] = std::int32_t(out.size());
     }
@@ -218,6 +228,24 @@ template <class T>
 bool Simulation<T>::steps_listed(int body, int level) const {
   if (job_of_body_.size() <= std::size_t(body)) return false;  // before the first prepare()
   return !job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)].stepped.empty();
+}
+
+template <class T>
+std::array<std::array<double, 3>, 4> Simulation<T>::corner_forces(int body, int level, std::size_t tet) const {
+  const Level<T>& L = bodies[std::size_t(body)].levels[std::size_t(level)];
+  const CornerForceArrays<T>* from = &L.corner_force;
+  std::size_t at = tet;
+  if (steps_listed(body, level)) {
+    const LevelJobState<T>& js = job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)];
+    const auto it = std::lower_bound(js.stepped.begin(), js.stepped.end(), std::int32_t(tet));  // ascending: by runs
+    if (it == js.stepped.end() || std::size_t(*it) != tet) return {};
+    from = &js.listed_corner_force;
+    at = std::size_t(it - js.stepped.begin());
+  }
+  std::array<std::array<double, 3>, 4> f{};
+  for (int c = 0; c < 4; ++c)
+    for (int k = 0; k < 3; ++k) f[std::size_t(c)][std::size_t(k)] = double((*from)[3 * c + k][at]);
+  return f;
 }
 
 namespace {

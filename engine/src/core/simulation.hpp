@@ -147,7 +147,7 @@ struct LevelJobState {
   // stepping 86 tets near a tool gathered all its 10k nodes every tick: as much time as its tets).
   std::size_t first_node_piece = 0, end_node_piece = 0;
   // A listed level's gather reads its own incidence: per node, the entries of Level::incidence
-  // whose tet is stepped, in the same order (made by prepare() for the nodes of its pieces; empty
+  // whose tet is stepped, in the same order, coded by list position (listed_corner_force) (made by prepare() for the nodes of its pieces; empty
   // ranges elsewhere). The entries it drops are tets that are not stepped, whose corner forces
   // are zero (apply_changes.cpp): a sum that starts at +0 is not changed by adding a zero, so the
   // forces are the same bits, and the gather reads a stepped region's entries, not every tet
@@ -158,6 +158,12 @@ struct LevelJobState {
   // gathering them from tets scattered over its mesh. Made by prepare() from `stepped`.
   AlignedVector<std::int32_t> listed_tet[4];
   AlignedVector<T> listed_grad[9], listed_volume;
+  // A listed level's corner forces in list order (ElementContext::listed_corner_forces; ec and gc
+  // point at them, and gather_incidence codes list positions, 4 x position + corner): a batch
+  // stores them with one vector store per array, where scattering them to tets spread over the
+  // level's mesh cost a quarter to a third of the listed pass (perf/layout_ab listed). The
+  // level's own Level::corner_force is then not written for its stepped tets.
+  CornerForceArrays<T> listed_corner_force;
 };
 
 // The phases of a tick, in the order they run (Simulation::step): A ghost refresh, the positions
@@ -260,6 +266,10 @@ class Simulation {
   std::size_t pass_nodes(int body, int level) const;  // nodes the level's node passes run over
   bool steps_listed(int body, int level) const;        // its element pass runs from a list
   std::size_t gather_entries(int body, int level) const;  // corner forces its gather sums per step
+  // What the level's last element pass put on tet's corners (N), [corner][component]: from
+  // Level::corner_force, or from the step's list-ordered copy of a listed level; zero for a tet
+  // the pass did not step. tet < the level's tet count.
+  std::array<std::array<double, 3>, 4> corner_forces(int body, int level, std::size_t tet) const;
 
   void elastic_energies(Executor& exec, double& elastic) const;
   double body_energy(const SimBody<T>& body) const;    // kinetic + elastic of one body (J)
@@ -307,7 +317,7 @@ class Simulation {
   std::vector<LevelJobState<T>> job_state_;
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
-  std::vector<std::uint8_t> stepped_mark_;  // prepare()'s scratch: 1 for a listed level's stepped tets
+  std::vector<std::int32_t> list_position_;  // prepare()'s scratch: 1 + a listed level's tet's list position, 0 if not listed
   void list_gather_incidence(const Level<T>& L, LevelJobState<T>& js);
   static void list_rest_data(const Level<T>& L, LevelJobState<T>& js);
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the

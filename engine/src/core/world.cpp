@@ -862,6 +862,15 @@ std::size_t World::node_count(BodyId b, int l) const {
 std::size_t World::tet_count(BodyId b, int l) const {
   return impl_->visit([&](auto& s) { return impl_->level(s, b, l).tet_count; });
 }
+std::array<Vec3d, 4> World::corner_forces(BodyId b, int l, std::size_t tet) const {
+  return impl_->visit([&](auto& s) {
+    const std::size_t n = impl_->level(s, b, l).tet_count;
+    if (tet >= n)
+      throw InputError(fmt::format("corner_forces: tet {} of level {} of body '{}', which has {} tets", tet, l,
+                                   impl_->body(s, b).def.name, n));
+    return s.corner_forces(b, l, tet);
+  });
+}
 
 template <class T>
 Level<T>& World::level(BodyId b, int l) {

@@ -37,10 +37,16 @@ struct ElementContext {
   // grad[q][tets[i]], listed_volume[i] = volume[tets[i]], for the list the kernels are given
   // (a multiresolution level's stepped tets: Simulation::prepare copies them once per change).
   // A batch then loads them instead of gathering them from tets scattered over the mesh. Null:
-  // gathered. Only the rest data: the rotations and corner forces stay per tet.
+  // gathered. Only the rest data: the rotations stay per tet.
   const std::int32_t* listed_tet[4] = {};
   const T* listed_grad[9] = {};
   const T* listed_volume = nullptr;
+  // Optional, for the *_listed force passes: true when corner_force is in list order,
+  // corner_force[3*c + k][i] for the list's i-th tet (arrays as long as the list), so that a
+  // batch stores its forces in one vector store per array instead of scattering them over the
+  // mesh's tets (a listed level's gather reads them by list position: Simulation::prepare).
+  // False: corner_force[3*c + k][tet], as the range passes write it.
+  bool listed_corner_forces = false;
 };
 
 }  // namespace pliant

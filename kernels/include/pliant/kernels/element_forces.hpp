@@ -32,7 +32,8 @@ template <class T> void element_forces_springs(const ElementContext<T>& c, Range
 // The same passes over listed tets: tets[i] for i in r (sorted or not, no tet twice). For a level
 // that steps part of its mesh (multiresolution), whose stepped tets lie in short runs: a batch of
 // W lanes is full however the runs are cut (gathers and per-lane stores instead of contiguous
-// loads). The same bits per tet as the range passes.
+// loads). The same bits per tet as the range passes. Corner forces go to corner_force[q][tet], or
+// to corner_force[q][i] (the list position) when c.listed_corner_forces is set.
 template <class T> void element_forces_linear_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
 template <class T> void element_forces_stvk_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
 template <class T> void element_forces_corotational_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r);
