@@ -12,9 +12,16 @@ void plan_tick(std::span<const LevelJob> jobs, ScheduleKind kind, std::int64_t t
     d.window_start = s == 0;
     d.window_end = s == p - 1;
     if (kind == ScheduleKind::staggered) {
-      // Slice s of p: [s n / p, (s+1) n / p), sizes differing by at most one.
-      d.begin = std::size_t((unsigned __int128)n * std::uint64_t(s) / std::uint64_t(p));
-      d.end = std::size_t((unsigned __int128)n * std::uint64_t(s + 1) / std::uint64_t(p));
+      // Slice s of p: [c(s), c(s+1)) with c(s) = s n / p rounded down to a multiple of align
+      // (c(p) = n): sizes differing by at most align (one, for align 1).
+      const std::size_t a = jobs[j].align < 1 ? 1 : jobs[j].align;
+      auto cut = [&](std::int64_t k) {
+        if (k >= p) return n;
+        const auto c = std::size_t((unsigned __int128)n * std::uint64_t(k) / std::uint64_t(p));
+        return c / a * a;
+      };
+      d.begin = cut(s);
+      d.end = cut(s + 1);
     } else if (d.window_end) {
       d.begin = 0;
       d.end = n;

@@ -138,6 +138,7 @@ void Simulation<T>::prepare(double tick_dt) {
       if (steps_by_list(L)) {
         js.listed_pass = listed_force_kernel<T>(L.model);
         list_stepped(L, js.stepped);
+        jobs_.back().align = kTickAlign;  // whole batches of lanes per tick (LevelJob::align)
       }
       pieces += L.stepped_runs.size() + 1;
       js.gc = gather_context(L);
