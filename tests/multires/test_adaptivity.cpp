@@ -593,6 +593,55 @@ std::uint64_t pushed_slab_hash(Schedule schedule, int threads, bool& listed_coar
   return w.state_hash();
 }
 
+TEST(Adaptivity, ABodyAddedInTheMiddleOfAListedLevelsWindowLosesNothing) {
+  // The slab of the test below, and a second body added between two steps while its listed level
+  // of period > 1 is in the middle of a window: the step is prepared again then, and the slices
+  // the level computed before (its corner forces, kept by list position) must reach the gather at
+  // the window's end, as they do when nothing computes before that end (naive).
+  std::uint64_t hash[2] = {0, 0};
+  int period = 0;
+  for (Schedule schedule : {Schedule::naive, Schedule::staggered}) {
+    WorldDef wd = no_gravity(1);
+    wd.schedule = schedule;
+    World w(wd);
+    BodyDef b = clamped_slab();
+    b.mesh.max[0] = 0.4;
+    b.mesh.cells = {24, 8, 4};
+    b.multiresolution.levels = 3;
+    PrescribedMotionDef push;
+    push.region.min = {-1, -1, 0.04 - 1e-9};
+    push.region.max = {0.03 + 1e-9, 1, 1};
+    push.keyframes = {{0.0, {0, 0, 0}}, {0.02, {0, 0, -0.006}}};
+    b.prescribed.push_back(push);
+    w.add_body(b);
+    // Step until a listed level of period > 1 has a few batches per tick, then until it is one tick
+    // into a window (steps counted from 0).
+    int listed_level = -1;
+    while (listed_level < 0 && w.time() < 0.05) {
+      w.step();
+      for (int l = 0; l < w.level_count(0); ++l) {
+        const LevelInfo i = w.level_info(0, l);
+        if (i.listed && i.period > 1 && i.stepped_tets >= 2 * std::size_t(i.period) * 16) listed_level = l;
+      }
+    }
+    ASSERT_GE(listed_level, 0);
+    period = w.level_info(0, listed_level).period;
+    while (w.steps() % period != 1) w.step();
+    const double dt = w.dt();
+    BodyDef other = block();  // far away, soft: its stable step is longer than the slab's
+    other.name = "other";
+    other.multiresolution = {};
+    other.material.young = 1e3;
+    for (auto& x : other.mesh.min) x += 5;
+    for (auto& x : other.mesh.max) x += 5;
+    w.add_body(other);
+    ASSERT_EQ(w.dt(), dt);  // the tick, and so the windows, go on
+    for (int i = 0; i < 3 * period; ++i) w.step();
+    hash[schedule == Schedule::staggered] = w.state_hash();
+  }
+  EXPECT_EQ(hash[1], hash[0]) << "period " << period;
+}
+
 TEST(Adaptivity, ListedLevelsSlicedInWholeBatchesGiveTheNaiveBits) {
   // A listed level of period p > 1 computes its tets in slices of whole 16-lane batches over the
   // ticks of its window (LevelJob::align): which tick computes a tet must not change its forces,

@@ -113,6 +113,18 @@ void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& j
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
+  // The corner forces of the listed levels, kept by list position: a prepare between two steps in
+  // the middle of a level's window (World::add_body, when the tick stays) must keep the slices the
+  // level has computed since the window began, which its gather sums at the window's end. (A change
+  // of resolution prepares at a tick where every window of its body ended: nothing to keep.)
+  struct KeptForces {
+    int body, level;
+    std::vector<std::int32_t> stepped;
+    CornerForceArrays<T> forces;
+  };
+  std::vector<KeptForces> kept;
+  for (LevelJobState<T>& js : job_state_)
+    if (!js.stepped.empty()) kept.push_back({js.body, js.level, std::move(js.stepped), std::move(js.listed_corner_force)});
   jobs_.clear();
   job_state_.clear();
   job_of_body_.clear();
@@ -191,6 +203,14 @@ void Simulation<T>::prepare(double tick_dt) {
     js.end_node_piece = node_pieces_.size();
     if (!js.stepped.empty()) {  // a listed level (its job state at its final address now)
       list_rest_data(L, js);
+      for (KeptForces& k : kept)
+        if (k.body == js.body && k.level == js.level && k.stepped == js.stepped) {
+          js.listed_corner_force = std::move(k.forces);  // the same list: its forces so far
+          for (int q = 0; q < 12; ++q) {
+            js.ec.corner_force[q] = js.listed_corner_force[q].data();
+            js.gc.corner_force[q] = js.listed_corner_force[q].data();
+          }
+        }
       list_gather_incidence(L, js);
     }
   }
