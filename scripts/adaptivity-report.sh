@@ -41,8 +41,9 @@ started=$(date -u +%s)
   echo
   echo "The same variants, in the same order, through \`pliant study\` (one sweep of the whole"
   echo "\`multiresolution\` object: \`adapt\` is refused beside a fixed level, so uniform and adaptive runs"
-  echo "cannot be two sweeps). Error: the mean vertical displacement of the probe next to the load over the"
-  echo "run, against the study's finest run (the uniform finest level); cost: tets computed"
+  echo "cannot be two sweeps). Error: the tables' measure (\`probe_rms\`): the RMS over the run (sampled every"
+  echo "ms) of the distance from the probe next to the load to the same probe in the study's finest run (the"
+  echo "uniform finest level), over that probe's largest displacement; cost: tets computed"
   echo "(\`--cost tet-updates\`). Points are labelled with their run number, the # of the tables above."
   echo
   for scene in organ bar; do
@@ -51,7 +52,7 @@ started=$(date -u +%s)
     for s in "${sweeps[@]}"; do args+=(--sweep "$s"); done
     probe=$([[ $scene == organ ]] && echo under_tool || echo near)
     "$pliant" study scenes/adaptive_$scene.json "${args[@]}" --threads 2 --quiet --reference finest --cost tet-updates \
-      --measure "{\"kind\": \"probe_mean\", \"probe\": \"$probe\", \"axis\": \"z\"}" --out "$out/study-$scene" > /dev/null
+      --measure "{\"kind\": \"probe_rms\", \"probe\": \"$probe\"}" --out "$out/study-$scene" > /dev/null
     cp "$out/study-$scene/pareto.png" "$images/pareto-$scene.png"
     echo "![$scene: error of the probe next to the load against tet updates, uniform levels, static split and adaptive runs](images/adaptivity/pareto-$scene.png)"
     echo
@@ -59,7 +60,7 @@ started=$(date -u +%s)
 import csv, sys
 rows = list(csv.DictReader(open(sys.argv[1])))
 err = [k for k in rows[0] if k.endswith('_error') and k != 'error'][0]
-print(f"{sys.argv[2]}: run, tet updates, error of the mean (study.csv):", "; ".join(
+print(f"{sys.argv[2]}: run, tet updates, RMS error (study.csv):", "; ".join(
     f"#{r['run']} {float(r['tet_updates']):.3g}, " + ("reference" if r['reference_run'] == '1' else f"{100*abs(float(r[err])):.2f}%")
     + (" ★" if r['pareto'] == '1' else "") for r in rows) + ".")
 PY

@@ -173,6 +173,14 @@ std::string run_record_json(const RunRecord& r) {
   for (double v : r.references) references.push_back(number(v));
   j["values"] = values;
   j["references"] = references;
+  // probe_rms tracks (per quantity, empty for the others): finish_study needs them all.
+  Json tracks = Json::array();
+  for (const auto& track : r.tracks) {
+    Json t = Json::array();
+    for (double v : track) t.push_back(number(v));
+    tracks.push_back(t);
+  }
+  j["tracks"] = tracks;
   return j.dump(2) + "\n";
 }
 
@@ -198,6 +206,11 @@ RunRecord parse_run_record(const std::string& text, const std::string& source) {
     r.repeats = j.at("repeats").get<int>();
     for (const Json& v : j.at("values")) r.values.push_back(number_of(v, source, "values"));
     for (const Json& v : j.at("references")) r.references.push_back(number_of(v, source, "references"));
+    if (j.contains("tracks"))
+      for (const Json& t : j.at("tracks")) {
+        r.tracks.emplace_back();
+        for (const Json& v : t) r.tracks.back().push_back(number_of(v, source, "tracks"));
+      }
     return r;
   } catch (const Json::exception& e) {
     throw InputError(fmt::format("{}: not a run record: {}", source, e.what()));

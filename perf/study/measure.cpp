@@ -99,11 +99,37 @@ class Observer {
 
   bool is_probe_kind() const {
     return m_.kind == MeasureKind::probe_final || m_.kind == MeasureKind::probe_mean ||
-           m_.kind == MeasureKind::probe_period || m_.kind == MeasureKind::probe_arrival;
+           m_.kind == MeasureKind::probe_period || m_.kind == MeasureKind::probe_arrival ||
+           m_.kind == MeasureKind::probe_rms;
   }
 
+  // probe_rms: the displacement at the sample times from + k every (1 ms by default), linear
+  // between the steps around each (runs of different steps are compared at the same times).
+  static constexpr double kTrackEvery = 1e-3;  // s
+  void track(const World& w) {
+    const double t = w.time();
+    const Vec3d x = w.probe_position(probe_);
+    Vec3d u;
+    for (std::size_t a = 0; a < 3; ++a) u[a] = x[a] - rest_[a];
+    const double every = m_.every > 0 ? m_.every : kTrackEvery;
+    const double from = m_.from.value_or(0.0);
+    for (;;) {
+      const double due = from + double(track_.size() / 3) * every;
+      if (due > t + 1e-12 * every) break;
+      // Between the last step (t_last_, u_last_) and this one; at or before the first, as it is.
+      const double s = have_last_ && t > t_last_ ? std::clamp((due - t_last_) / (t - t_last_), 0.0, 1.0) : 1.0;
+      for (std::size_t a = 0; a < 3; ++a) track_.push_back(have_last_ ? u_last_[a] + s * (u[a] - u_last_[a]) : u[a]);
+    }
+    t_last_ = t;
+    u_last_ = u;
+    have_last_ = true;
+  }
+  std::vector<double> take_track() { return std::move(track_); }
+
   void sample(const World& w) {
-    if (is_probe_kind()) {
+    if (m_.kind == MeasureKind::probe_rms) {
+      track(w);
+    } else if (is_probe_kind()) {
       t_.push_back(w.time());
       const Vec3d x = w.probe_position(probe_);
       if (m_.axis == kDisplacementLength) {  // |u| (m)
@@ -139,6 +165,11 @@ class Observer {
         if (m_.report == "frequency") return 1 / period;
         if (m_.report == "speed") return m_.distance / period;
         return period;
+      }
+      case MeasureKind::probe_rms: {  // until finish_study compares it: the RMS of its own track (m)
+        double sum = 0;
+        for (const double u : track_) sum += u * u;
+        return track_.empty() ? kNaN : std::sqrt(sum / double(track_.size() / 3));
       }
       case MeasureKind::probe_arrival: {
         for (std::size_t i = 1; i < y_.size(); ++i) {
@@ -194,6 +225,10 @@ class Observer {
   BodyId body_ = 0;
   std::vector<std::size_t> nodes_;
   std::vector<double> t_, y_, body_values_;
+  std::vector<double> track_;  // probe_rms: x y z per sample (m)
+  double t_last_ = 0;
+  Vec3d u_last_{};
+  bool have_last_ = false;
   double next_sample_ = 0, every_ = 0;
 };
 
@@ -245,7 +280,8 @@ void check_measures(const std::vector<QuantityDef>& quantities, const SceneDef& 
   for (const QuantityDef& q : quantities) {
     const MeasureDef& m = q.measure;
     const bool probe_kind = m.kind == MeasureKind::probe_final || m.kind == MeasureKind::probe_mean ||
-                            m.kind == MeasureKind::probe_period || m.kind == MeasureKind::probe_arrival;
+                            m.kind == MeasureKind::probe_period || m.kind == MeasureKind::probe_arrival ||
+                            m.kind == MeasureKind::probe_rms;
     if (probe_kind) {
       std::string names;
       bool found = false;
@@ -323,8 +359,12 @@ RunRecord run_measured(const SceneDef& scene, const std::vector<QuantityDef>& qu
   r.steps = w.steps();
   r.tet_updates = w.tick_stats().tet_updates();
   r.simulated_time = w.time();
+  r.tracks.assign(quantities.size(), {});
   if (r.status == "ok")
-    for (std::size_t q = 0; q < observers.size(); ++q) r.values[q] = observers[q].finish(w);
+    for (std::size_t q = 0; q < observers.size(); ++q) {
+      r.values[q] = observers[q].finish(w);
+      if (quantities[q].measure.kind == MeasureKind::probe_rms) r.tracks[q] = observers[q].take_track();
+    }
   return r;
 }
 

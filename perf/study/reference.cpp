@@ -74,6 +74,7 @@ MeasureDef measure_from(const Json& j, const std::string& path, const Ctx& ctx) 
   static const std::vector<std::pair<std::string, MeasureKind>> kinds = {
       {"probe_final", MeasureKind::probe_final},     {"probe_mean", MeasureKind::probe_mean},
       {"probe_period", MeasureKind::probe_period},   {"probe_arrival", MeasureKind::probe_arrival},
+      {"probe_rms", MeasureKind::probe_rms},
       {"strain", MeasureKind::strain},               {"poisson_ratio", MeasureKind::poisson_ratio},
       {"volume_change", MeasureKind::volume_change}};
   MeasureDef m;
@@ -85,9 +86,12 @@ MeasureDef measure_from(const Json& j, const std::string& path, const Ctx& ctx) 
   }
   m.kind = it->second;
   const bool probe_kind = m.kind == MeasureKind::probe_final || m.kind == MeasureKind::probe_mean ||
-                          m.kind == MeasureKind::probe_period || m.kind == MeasureKind::probe_arrival;
+                          m.kind == MeasureKind::probe_period || m.kind == MeasureKind::probe_arrival ||
+                          m.kind == MeasureKind::probe_rms;
   std::vector<std::string> known = {"kind", "scale"};
-  if (probe_kind) {
+  if (m.kind == MeasureKind::probe_rms) {
+    known.insert(known.end(), {"probe", "from", "every"});  // the whole displacement: no axis
+  } else if (probe_kind) {
     known.insert(known.end(), {"probe", "axis"});
     if (m.kind == MeasureKind::probe_mean) known.insert(known.end(), {"from", "whole_periods"});
     if (m.kind == MeasureKind::probe_period) known.insert(known.end(), {"from", "report", "distance"});
@@ -102,7 +106,8 @@ MeasureDef measure_from(const Json& j, const std::string& path, const Ctx& ctx) 
   if (probe_kind) {
     if (!has("probe")) ctx.fail(path + ".probe", "required: the name of a probe of the scene");
     m.probe = ctx.string(j["probe"], path + ".probe");
-    if (!has("axis")) ctx.fail(path + ".axis", "required: \"x\", \"y\" or \"z\"");
+    if (m.kind == MeasureKind::probe_rms) m.axis = kDisplacementLength;
+    else if (!has("axis")) ctx.fail(path + ".axis", "required: \"x\", \"y\" or \"z\"");
   }
   if (has("axis")) m.axis = ctx.axis(j["axis"], path + ".axis");
   // Numbers that may also be expressions of the variables, evaluated per run.
@@ -351,6 +356,7 @@ const char* to_string(MeasureKind k) {
     case MeasureKind::probe_mean: return "probe_mean";
     case MeasureKind::probe_period: return "probe_period";
     case MeasureKind::probe_arrival: return "probe_arrival";
+    case MeasureKind::probe_rms: return "probe_rms";
     case MeasureKind::strain: return "strain";
     case MeasureKind::poisson_ratio: return "poisson_ratio";
     case MeasureKind::volume_change: return "volume_change";

@@ -126,6 +126,7 @@ QuantityDef quantity_for_measure(const MeasureDef& m) {
       if (m.report == "speed") q.name = probe + "_speed", q.unit = "m/s";
       else q.name = probe + "_arrival", q.unit = "s";
       break;
+    case MeasureKind::probe_rms: q.name = m.probe + "_rms", q.unit = "m"; break;
     case MeasureKind::strain: q.name = body + "strain_" + kAxis[std::clamp(m.axis, 0, 2)]; break;
     case MeasureKind::poisson_ratio: q.name = body + "poisson_ratio"; break;
     case MeasureKind::volume_change: q.name = body + "volume_change"; break;
@@ -177,6 +178,26 @@ void finish_study(StudyResult& s) {
       if (s.finest >= 0) r.references = s.runs[std::size_t(s.finest)].values;
     }
     if (s.finest >= 0) s.runs[std::size_t(s.finest)].is_reference = true;
+    // probe_rms: each run's track against the finest run's, at the same sample times (over those
+    // both have): value = the RMS of the distance (m), reference = the finest run's largest
+    // displacement of the probe (m).
+    for (std::size_t q = 0; q < nq && s.finest >= 0; ++q) {
+      if (s.quantities[q].measure.kind != MeasureKind::probe_rms) continue;
+      const RunRecord& f = s.runs[std::size_t(s.finest)];
+      const std::vector<double> none;
+      const std::vector<double>& ref = q < f.tracks.size() ? f.tracks[q] : none;
+      double largest = 0;
+      for (std::size_t i = 0; i + 2 < ref.size(); i += 3)
+        largest = std::max(largest, std::sqrt(ref[i] * ref[i] + ref[i + 1] * ref[i + 1] + ref[i + 2] * ref[i + 2]));
+      for (RunRecord& r : s.runs) {
+        r.references[q] = ref.empty() ? kNaN : largest;
+        const std::vector<double>& mine = q < r.tracks.size() ? r.tracks[q] : none;
+        const std::size_t n = std::min(mine.size(), ref.size()) / 3;
+        double sum = 0;
+        for (std::size_t i = 0; i < 3 * n; ++i) sum += (mine[i] - ref[i]) * (mine[i] - ref[i]);
+        if (q < r.values.size()) r.values[q] = r.status == "ok" && n > 0 ? std::sqrt(sum / double(n)) : kNaN;
+      }
+    }
   }
   std::vector<double> cost, error;
   for (auto& r : s.runs) {
@@ -184,7 +205,11 @@ void finish_study(StudyResult& s) {
     r.errors.assign(nq, kNaN);
     r.error = nq ? 0 : kNaN;
     for (std::size_t q = 0; q < nq; ++q) {
-      r.errors[q] = relative_error(q < r.values.size() ? r.values[q] : kNaN, r.references[q]);
+      const double value = q < r.values.size() ? r.values[q] : kNaN;
+      // probe_rms: the value is the distance itself, over the reference's largest displacement.
+      r.errors[q] = s.quantities[q].measure.kind == MeasureKind::probe_rms
+                        ? (std::isnan(value) || !(r.references[q] > 0) ? kNaN : value / r.references[q])
+                        : relative_error(value, r.references[q]);
       r.error = std::isnan(r.errors[q]) || std::isnan(r.error) ? kNaN : std::max(r.error, std::fabs(r.errors[q]));
     }
     if (r.status != "ok") r.error = kNaN;
@@ -253,6 +278,11 @@ PreparedStudy prepare_study(const StudyOptions& o) {
   }
   s.description = ref.description;
   s.quantities = ref.quantities;
+  for (const QuantityDef& q : s.quantities)
+    if (q.measure.kind == MeasureKind::probe_rms && !finest)
+      throw InputError(fmt::format("{}: quantity {}: probe_rms compares every run's probe with the finest run's: "
+                                   "use --reference finest",
+                                   ref.source, q.name));
   if (finest || probes_against_finest) {
     s.reference_kind = "finest";
   } else if (value) {
@@ -323,6 +353,11 @@ std::string progress_line(const StudyResult& s, const RunRecord& r, std::size_t 
     line += r.status + (r.message.empty() ? "" : " (" + r.message + ")");
   } else {
     for (std::size_t q = 0; q < s.quantities.size() && q < r.values.size(); ++q) {
+      if (s.quantities[q].measure.kind == MeasureKind::probe_rms && !r.is_reference && std::isnan(r.references[q])) {
+        // Compared with the finest run once every run is in (finish_study): its own motion till then.
+        line += fmt::format("{}{}: tracked, RMS displacement {:.6g} m", q ? ", " : "", s.quantities[q].name, r.values[q]);
+        continue;
+      }
       line += fmt::format("{}{} = {:.6g}", q ? ", " : "", s.quantities[q].name, r.values[q]);
       if (q < r.references.size() && !std::isnan(r.references[q]))
         line += fmt::format(" (ref {:.6g}, {})", r.references[q], md_error(relative_error(r.values[q], r.references[q])));

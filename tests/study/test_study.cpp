@@ -304,6 +304,38 @@ TEST(Report, FinestRunIsTheReference) {
   EXPECT_TRUE(s.runs[1].pareto);
 }
 
+// probe_rms: each run's track against the finest run's, at the same sample times.
+TEST(Report, ProbeRmsIsTheRmsDistanceToTheFinestRunsTrack) {
+  StudyResult s = hand_made_study();
+  s.quantities[0].name = "tip_rms";
+  s.quantities[0].measure.kind = MeasureKind::probe_rms;
+  s.reference_kind = "finest";
+  s.runs[1].status = "ok";
+  // Three samples each (x y z): the finest run's displacement reaches |(0, 3, 4)| = 5 m.
+  s.runs[2].tracks = {{0, 0, 0, 0, 1, 0, 0, 3, 4}};
+  s.runs[1].tracks = {{0, 0, 0, 0, 1, 0, 0, 3, 4}};  // the same track
+  s.runs[0].tracks = {{1, 0, 0, 0, 1, 2, 0, 3, 4, 9, 9, 9}};  // off by 1, 2, 0 m; one sample more
+  for (auto& r : s.runs) r.values = {123};  // each run's own RMS displacement: replaced
+  finish_study(s);
+  EXPECT_EQ(s.finest, 2);
+  EXPECT_EQ(s.runs[2].values[0], 0);
+  EXPECT_EQ(s.runs[2].errors[0], 0);
+  EXPECT_EQ(s.runs[1].values[0], 0);
+  EXPECT_EQ(s.runs[0].references[0], 5);
+  EXPECT_DOUBLE_EQ(s.runs[0].values[0], std::sqrt((1.0 + 4.0 + 0.0) / 3));  // over the samples both have
+  EXPECT_DOUBLE_EQ(s.runs[0].errors[0], std::sqrt(5.0 / 3) / 5);
+  // Parsed: a probe and no axis (the whole displacement); from and every.
+  const MeasureDef m = parse_measure(R"({"kind": "probe_rms", "probe": "tip", "every": 0.002, "from": 0.1})", "m");
+  EXPECT_EQ(m.kind, MeasureKind::probe_rms);
+  EXPECT_EQ(m.probe, "tip");
+  EXPECT_EQ(m.every, 0.002);
+  EXPECT_EQ(quantity_for_measure(m).name, "tip_rms");
+  EXPECT_EQ(quantity_for_measure(m).unit, "m");
+  EXPECT_THAT(error_of([] { parse_measure(R"({"kind": "probe_rms", "probe": "tip", "axis": "z"})", "m"); }),
+              HasSubstr("axis"));
+  EXPECT_THAT(error_of([] { parse_measure(R"({"kind": "probe_rms"})", "m"); }), HasSubstr("probe"));
+}
+
 // ---- studies ------------------------------------------------------------------------------------
 
 TEST(Study, BadOverridesAndReferencesFailBeforeAnyRun) {
@@ -447,6 +479,34 @@ TEST(Study, MeasureAndFinestReference) {
   EXPECT_NEAR(s.runs[1].values[0], -0.3e-3, 4e-6);  // -nu F / (E A); measured 8.0e-7 from it
   EXPECT_EQ(s.runs[1].errors[0], 0);
   EXPECT_LT(std::fabs(s.runs[0].errors[0]), 0.02);
+}
+
+TEST(Study, ProbeRmsAgainstTheFinestRun) {
+  // The cantilever under gravity at two resolutions: the finest run is the reference (0), the
+  // coarse one a few per cent off over the run, its track sampled every 1 ms from 0 to the end.
+  StudyOptions o;
+  o.scene = kValidation / "cantilever_gravity.json";
+  o.sweeps = {"bodies[0].mesh.box.cells=[10,1,1]|[20,2,2]", "duration=0.05"};
+  o.measure = R"({"kind": "probe_rms", "probe": "tip"})";
+  o.write_files = false;
+  o.min_time = 0;
+  o.reference = "0.01";
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("use --reference finest"));
+  o.reference = "finest";
+  const StudyResult s = run_study(o);
+  ASSERT_EQ(s.runs.size(), 2u);
+  EXPECT_EQ(s.finest, 1);
+  for (const RunRecord& r : s.runs) {
+    ASSERT_EQ(r.tracks.size(), 1u);
+    EXPECT_EQ(r.tracks[0].size(), 3u * 51);  // t = 0, 1 ms, ..., 50 ms
+  }
+  EXPECT_EQ(s.runs[1].errors[0], 0);
+  EXPECT_GT(s.runs[0].references[0], 1e-4);  // the tip falls (m)
+  std::printf("coarse cantilever: RMS distance %.3g m over %.3g m: %.2f%%\n", s.runs[0].values[0], s.runs[0].references[0],
+              100 * s.runs[0].errors[0]);
+  // Linear tets one cell thick lock in bending: 27.1% from the fine run over these 50 ms (measured;
+  // the same bits on any thread count, so only the rounding of another build moves it).
+  EXPECT_NEAR(s.runs[0].errors[0], 0.2707, 0.0005);
 }
 
 // Uniform levels and adaptive runs of one multiresolution body in one study (docs/adaptivity.md):

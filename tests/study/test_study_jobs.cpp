@@ -75,7 +75,12 @@ TEST(StudyJobs, RunRecordRoundTripsExactly) {
   r.repeats = 5;
   r.values = {std::nextafter(1.0, 2.0), kNaN, std::numeric_limits<double>::infinity(), -0.0};
   r.references = {-std::numeric_limits<double>::infinity(), 2.5};
+  r.tracks = {{}, {0.1, -0.0, 1e-300, 2.0 / 3.0}, {}, {}};
   const RunRecord back = parse_run_record(run_record_json(r), "test");
+  ASSERT_EQ(back.tracks.size(), 4u);
+  ASSERT_EQ(back.tracks[1].size(), 4u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_TRUE(same_bits(back.tracks[1][i], r.tracks[1][i]));
+  EXPECT_TRUE(back.tracks[0].empty());
   EXPECT_EQ(back.settings, r.settings);
   EXPECT_EQ(back.status, r.status);
   EXPECT_EQ(back.message, r.message);

@@ -51,6 +51,11 @@ enum class MeasureKind {
   probe_mean,     // its time average: over [from, end], or over whole periods of its oscillation
   probe_period,   // the period of its oscillation (s), or 1/period (Hz), or distance/period (m/s)
   probe_arrival,  // when it first reaches `level` (s, minus `delay`), or distance/(time - delay) (m/s)
+  // The RMS over [from, end] of the probe's distance to the same probe in the finest run (m), its
+  // position sampled every `every` s (default 1 ms, linear between steps); its error is that RMS
+  // over the finest run's largest displacement of the probe. Needs reference "finest". What the
+  // adaptivity tables measure (docs/adaptivity.md), where a mean forgives a wrong trajectory.
+  probe_rms,
   strain,         // mean engineering strain along `axis` of a body's nodes in `region` (slope of a fit)
   poisson_ratio,  // -(mean lateral strain)/(axial strain) of those nodes
   volume_change,  // V/V0 - 1 of a whole body
@@ -165,6 +170,9 @@ struct RunRecord {
   double wall_s = 0;                   // stepping only, measurements excluded (s); the least over repeats
   int repeats = 1;                     // short runs are repeated to time them (StudyOptions::min_time)
   std::vector<double> values;          // per quantity (NaN: not measurable, e.g. no whole period)
+  // Per quantity: a probe_rms quantity's track, the probe's displacement x y z (m) at each sample
+  // time; empty for the other kinds. finish_study compares it with the finest run's.
+  std::vector<std::vector<double>> tracks;
   std::vector<double> references;      // per quantity
   std::vector<double> errors;          // per quantity: value/reference - 1 (value - reference if reference = 0)
   double error = kNaN;                 // max |errors| (NaN if any is NaN)
