@@ -566,12 +566,9 @@ std::uint64_t adaptive_hash(int threads) {
   return w.state_hash();
 }
 
-// A 3-level slab whose corner is pushed, adaptive at its defaults, stepped `ticks` times with the
-// given schedule; `listed_coarse` is set when a level of period > 1 was stepped from a list.
-std::uint64_t pushed_slab_hash(Schedule schedule, int threads, bool& listed_coarse) {
-  WorldDef wd = no_gravity(threads);
-  wd.schedule = schedule;
-  World w(wd);
+// A 40 x 10 x 4 cm slab of 3 levels, adaptive at its defaults, its corner pushed 6 mm down: its
+// coarser levels come to step a region from a list (a level of period > 1 with a few batches).
+BodyDef pushed_three_level_slab() {
   BodyDef b = clamped_slab();
   b.mesh.max[0] = 0.4;
   b.mesh.cells = {24, 8, 4};
@@ -581,7 +578,16 @@ std::uint64_t pushed_slab_hash(Schedule schedule, int threads, bool& listed_coar
   push.region.max = {0.03 + 1e-9, 1, 1};
   push.keyframes = {{0.0, {0, 0, 0}}, {0.02, {0, 0, -0.006}}};
   b.prescribed.push_back(push);
-  w.add_body(b);
+  return b;
+}
+
+// The slab above stepped for 30 ms with the given schedule; `listed_coarse` is set when a level of
+// period > 1 was stepped from a list.
+std::uint64_t pushed_slab_hash(Schedule schedule, int threads, bool& listed_coarse) {
+  WorldDef wd = no_gravity(threads);
+  wd.schedule = schedule;
+  World w(wd);
+  w.add_body(pushed_three_level_slab());
   listed_coarse = false;
   while (w.time() < 0.03) {
     w.step();
@@ -604,16 +610,7 @@ TEST(Adaptivity, ABodyAddedInTheMiddleOfAListedLevelsWindowLosesNothing) {
     WorldDef wd = no_gravity(1);
     wd.schedule = schedule;
     World w(wd);
-    BodyDef b = clamped_slab();
-    b.mesh.max[0] = 0.4;
-    b.mesh.cells = {24, 8, 4};
-    b.multiresolution.levels = 3;
-    PrescribedMotionDef push;
-    push.region.min = {-1, -1, 0.04 - 1e-9};
-    push.region.max = {0.03 + 1e-9, 1, 1};
-    push.keyframes = {{0.0, {0, 0, 0}}, {0.02, {0, 0, -0.006}}};
-    b.prescribed.push_back(push);
-    w.add_body(b);
+    w.add_body(pushed_three_level_slab());
     // Step until a listed level of period > 1 has a few batches per tick, then until it is one tick
     // into a window (steps counted from 0).
     int listed_level = -1;
