@@ -147,11 +147,12 @@ struct LevelJobState {
   // stepping 86 tets near a tool gathered all its 10k nodes every tick: as much time as its tets).
   std::size_t first_node_piece = 0, end_node_piece = 0;
   // A listed level's gather reads its own incidence: per node, the entries of Level::incidence
-  // whose tet is stepped, in the same order, coded by list position (listed_corner_force) (made by prepare() for the nodes of its pieces; empty
-  // ranges elsewhere). The entries it drops are tets that are not stepped, whose corner forces
-  // are zero (apply_changes.cpp): a sum that starts at +0 is not changed by adding a zero, so the
-  // forces are the same bits, and the gather reads a stepped region's entries, not every tet
-  // around its nodes (a middle level stepping 342 of its 5 906 tets read about 4x as many).
+  // whose tet is stepped, in the same order, coded by list position (listed_corner_force); made
+  // by prepare() for the nodes of its pieces, empty ranges elsewhere. The entries it drops are
+  // tets that are not stepped, whose corner forces are zero (apply_changes.cpp): a sum that starts
+  // at +0 is not changed by adding a zero, so the forces are the same bits, and the gather reads a
+  // stepped region's entries, not every tet around its nodes (a middle level stepping 342 of its
+  // 5 906 tets read about 4x as many).
   AlignedVector<std::int32_t> gather_offsets, gather_incidence;
   // A listed level's rest data in list order (ElementContext::listed_tet, listed_grad,
   // listed_volume: ec points at them): its element passes and monitor load them instead of
