@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <numeric>
 
@@ -376,6 +377,57 @@ TEST(ActivationState, IncrementalUpdatesMatchAFreshEvaluationOnTheOrgan) {
   incremental_matches_fresh(h, 200, 0x2545f4914f6cdd1dull);
 }
 #endif
+
+TEST(TetLocator, ContainingOrNearIsTheBruteForceAnswer) {
+  // containing_or_near skips the tets whose bounding box lies farther than the best so far: the
+  // answer must be the one a scan of every tet gives (the same tet, the same weights), for points
+  // inside, at the surface and outside, with masks of few stepped tets (ghost sources far away).
+  const TetMesh m = make_box_mesh({0, 0, 0}, {0.4, 0.1, 0.1}, {12, 3, 3}, 6);
+  const detail::TetLocator loc(m);
+  std::uint64_t seed = 12345;
+  auto uniform = [&] {  // in [0, 1)
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return double(seed >> 11) * 0x1.0p-53;
+  };
+  // The clamped distance of the near search (tet_locator.cpp): the distance to the point of
+  // the tet's barycentric weights clamped at 0 and normalised.
+  auto clamped = [&](std::size_t t, const Vec3d& p) {
+    auto w = loc.weights(std::int32_t(t), p);
+    double sum = 0;
+    for (double& v : w) sum += (v = std::max(v, 0.0));
+    for (double& v : w) v /= sum;
+    Vec3d q{0, 0, 0};
+    for (int c = 0; c < 4; ++c)
+      for (int d = 0; d < 3; ++d) q[std::size_t(d)] += w[std::size_t(c)] * m.points[3 * std::size_t(m.tets[t][std::size_t(c)]) + std::size_t(d)];
+    return std::hypot(p[0] - q[0], p[1] - q[1], p[2] - q[2]);
+  };
+  int near_answers = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    std::vector<std::uint8_t> mask(m.tet_count(), 0);
+    const double share = trial % 4 == 0 ? 0.02 : 0.3;
+    for (auto& b : mask) b = uniform() < share;
+    const Vec3d p{-0.05 + 0.5 * uniform(), -0.05 + 0.2 * uniform(), -0.05 + 0.2 * uniform()};
+    const double radius = 0.15 * uniform();
+    const TetLink got = loc.containing_or_near(p, mask, radius);
+    TetLink want = loc.containing(p, mask);
+    if (want.tet < 0) {
+      double best = radius;
+      for (std::size_t t = 0; t < m.tet_count(); ++t) {
+        if (!mask[t]) continue;
+        const double d = clamped(t, p);
+        if (d < best || (d == best && want.tet >= 0 && std::int32_t(t) < want.tet)) {
+          best = d;
+          want.tet = std::int32_t(t);
+          want.weights = loc.weights(std::int32_t(t), p);
+        }
+      }
+      near_answers += want.tet >= 0;
+    }
+    ASSERT_EQ(got.tet, want.tet) << "trial " << trial;
+    for (int c = 0; c < 4; ++c) EXPECT_EQ(got.weights[std::size_t(c)], want.weights[std::size_t(c)]) << "trial " << trial;
+  }
+  EXPECT_GT(near_answers, 100);  // the near search decided most of them
+}
 
 }  // namespace
 }  // namespace pliant

@@ -69,6 +69,7 @@ TetLocator::TetLocator(const TetMesh& mesh) : mesh_(mesh) {
   size_grid(lo_, hi, mesh.tet_count(), size_, dims_);
   const std::size_t nb = std::size_t(dims_[0]) * std::size_t(dims_[1]) * std::size_t(dims_[2]);
   inverse_.resize(mesh.tet_count());
+  box_.resize(mesh.tet_count());
   std::vector<std::array<Cell, 2>> range(mesh.tet_count());
   offsets_.assign(nb + 1, 0);
   for (std::size_t t = 0; t < mesh.tet_count(); ++t) {
@@ -84,6 +85,7 @@ TetLocator::TetLocator(const TetMesh& mesh) : mesh_(mesh) {
     auto& inv = inverse_[t];
     tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, inv.data());
     for (int k = 0; k < 3; ++k) inv[9 + std::size_t(k)] = p[0][k];
+    box_[t] = {a[0], a[1], a[2], b[0], b[1], b[2]};
     range[t] = {cell_of(a), cell_of(b)};
     for (int z = range[t][0][2]; z <= range[t][1][2]; ++z)
       for (int y = range[t][0][1]; y <= range[t][1][1]; ++y)
@@ -227,6 +229,19 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
   double best_d = radius;
   each_tet_near(p, radius, [&](std::int32_t t) {
     if (!mask[std::size_t(t)]) return;
+    // The distance to the tet's bounding box is at most its distance, which is at most
+    // clamped_distance: a tet whose box is clearly farther than the best so far cannot win (the
+    // margin covers the rounding of the two, so the answer is the same tet, to the bit). Most tets
+    // of the search box are skipped this way (a change's node evaluations spent most of their time
+    // in clamped_distance: about 2 us per node on the 50k-tet organ).
+    const auto& bx = box_[std::size_t(t)];
+    double gap2 = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double g = std::max({bx[d] - p[d], 0.0, p[d] - bx[3 + d]});
+      gap2 += g * g;
+    }
+    const double bound = best_d * (1 + 1e-9);
+    if (gap2 > bound * bound) return;
     const double dist = clamped_distance(t, p);
     if (dist < best_d || (dist == best_d && best.tet >= 0 && t < best.tet)) {
       best_d = dist;

@@ -51,6 +51,7 @@ class TetLocator {
   std::array<int, 3> dims_{1, 1, 1};
   std::vector<std::int32_t> offsets_, items_;    // bucket -> tets (CSR)
   std::vector<std::array<double, 12>> inverse_;  // per tet: rows of Dm^-1 (9) and corner 0 (3)
+  std::vector<std::array<double, 6>> box_;       // per tet: its bounding box, lo (3) and hi (3), m
 };
 
 class NodeLocator {
