@@ -22,6 +22,12 @@ def num(s):
         return None
 
 
+def cell(values, f, form):
+    """f(values) formatted, or an empty cell where no run recorded the column (a multiresolution
+    scene has no roofline, a skipped one no time)."""
+    return format(f(values), form) if values else ""
+
+
 def main(paths):
     rows = defaultdict(list)
     order = []
@@ -47,9 +53,26 @@ def main(paths):
         fr = [num(r["roofline_fraction"]) for r in rs if num(r["roofline_fraction"])]
         gb = [num(r["gb_per_s"]) for r in rs if num(r["gb_per_s"])]
         p99 = [num(r["step_p99_us"]) for r in rs if num(r["step_p99_us"])]
+        bt = [num(rs[0]["bytes_per_tet"])] if num(rs[0]["bytes_per_tet"]) else []
+        roof = cell(fr, lambda v: 100 * statistics.median(v), ".0f")
         print(f"| {case} | {model} | {prec} | {order_} | {rs[0]['tets']} | {threads} | {statistics.median(ns):.2f} "
-              f"| {min(ns):.2f}..{max(ns):.2f} | {num(rs[0]['bytes_per_tet']):.0f} | {statistics.median(gb):.1f} "
-              f"| {100 * statistics.median(fr):.0f}% | {rs[0]['bound']} | {statistics.median(p99):.0f} |")
+              f"| {min(ns):.2f}..{max(ns):.2f} | {cell(bt, lambda v: v[0], '.0f')} | {cell(gb, statistics.median, '.1f')} "
+              f"| {roof + '%' if roof else ''} | {rs[0]['bound']} | {cell(p99, statistics.median, '.0f')} |")
+    print("\n| scene | precision | tets | threads | steps/s | step p50 us (range) | p99 us | max us | real-time factor (range) |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for key in order:
+        case, kind, model, prec, order_, size, threads = key
+        if kind != "scene":
+            continue
+        rs = rows[key]
+        col = {c: [num(r[c]) for r in rs if num(r[c])] for c in ("steps_per_s", "step_p50_us", "step_p99_us", "step_max_us", "realtime_factor")}
+        if not col["step_p50_us"]:
+            continue
+        def median_range(v, form):
+            return f"{format(statistics.median(v), form)} ({format(min(v), form)}..{format(max(v), form)})" if v else ""
+        print(f"| {case[6:]} | {prec} | {rs[0]['tets']} | {threads} | {cell(col['steps_per_s'], statistics.median, '.0f')} "
+              f"| {median_range(col['step_p50_us'], '.1f')} | {cell(col['step_p99_us'], statistics.median, '.1f')} "
+              f"| {cell(col['step_max_us'], statistics.median, '.0f')} | {median_range(col['realtime_factor'], '.2f')} |")
     print("\n| summary | precision | size | threads | median | min..max | unit |")
     print("|---|---|---|---|---|---|---|")
     for key in order:
