@@ -362,14 +362,10 @@ bool ActivationState::covered(int l, std::int32_t node) const {
     bool cov = false;
     for (int c = 0; c < l && !cov; ++c) {
       const TetLocator& in = *tet_locators_[std::size_t(c)];
-      // Deeper than the reach inside one tet of level c, no other tet of it is within the reach:
-      // that tet decides (the search around p below is the cost of update() on large bodies).
+      // The tet of level c at p as the hint: deeper than the reach inside it, that tet decides
+      // (the search around p is the cost of update() on large bodies).
       const std::int32_t t = c + 1 == l ? h_.links[std::size_t(l)].to_coarser[std::size_t(node)].tet : in.locate(p).tet;
-      if (t >= 0 && in.depth(t, p) > reach_[std::size_t(l)]) {
-        cov = stepped_[std::size_t(c)][std::size_t(t)] != 0;
-        continue;
-      }
-      cov = in.containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]).tet >= 0;
+      cov = in.covers(p, stepped_[std::size_t(c)], reach_[std::size_t(l)], t);
     }
     memo = cov ? 1 : 2;
     covered_memo_set_.push_back(node);
@@ -391,7 +387,10 @@ void ActivationState::evaluate_node(int l, std::int32_t i, bool& changed) {
     role = NodeRole::active;
     const Vec3d p = h_.meshes[std::size_t(l)].point(std::size_t(i));
     for (int c = 0; c < l; ++c) {  // the coarsest stepped tet covering the node
-      const TetLink link = tet_locators_[std::size_t(c)]->containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)]);
+      // With the node's tet of the next coarser level as the hint (its link, at hand): most nodes
+      // lie deeper than the reach inside it, and that tet alone answers, without a search.
+      const std::int32_t hint = c + 1 == l ? h_.links[std::size_t(l)].to_coarser[std::size_t(i)].tet : -1;
+      const TetLink link = tet_locators_[std::size_t(c)]->containing_or_near(p, stepped_[std::size_t(c)], reach_[std::size_t(l)], hint);
       if (link.tet < 0) continue;
       role = NodeRole::ghost;
       const Tet& tet = h_.meshes[std::size_t(c)].tets[std::size_t(link.tet)];
@@ -591,12 +590,16 @@ ActivationState::Changes ActivationState::update() {
       changed_tets[l].push_back(t);
     }
   }
+  // Only nodes of a stepped tet: a node with none is inactive whatever covers it, and was so
+  // before unless its own level's tets changed (then it is in nodes[f] already, as a corner of one
+  // of them). On the 50k-tet organ a change's boxes held up to 50 000 fine nodes, a few thousand
+  // of them at stepped tets.
   for (std::size_t l = 0; l < n; ++l)
     for (const auto& [lo, hi] : boxes[l])
       for (std::size_t f = l + 1; f < n; ++f) {  // the finer nodes this tet covers (or covered)
         if (stepped_before[f] == 0 && stepped_count_[f] == 0) continue;
         const double r = reach_[f];
-        node_locators_[f]->in_box({lo[0] - r, lo[1] - r, lo[2] - r}, {hi[0] + r, hi[1] + r, hi[2] + r}, nodes[f]);
+        node_locators_[f]->in_box({lo[0] - r, lo[1] - r, lo[2] - r}, {hi[0] + r, hi[1] + r, hi[2] + r}, stepped_incident_[f], nodes[f]);
       }
   // Roles, coarse to fine: a ghost's sources are final before it; a node whose role or sources
   // changed sends the ghosts that read it to be evaluated again.

@@ -190,7 +190,10 @@ TetLink TetLocator::containing(const Vec3d& p, const std::vector<std::uint8_t>& 
 }
 
 double TetLocator::clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4>* clamped) const {
-  auto w = weights(t, p);
+  return clamped_distance(t, p, weights(t, p), clamped);
+}
+
+double TetLocator::clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4> w, std::array<double, 4>* clamped) const {
   double sum = 0;
   for (double& v : w) sum += (v = std::max(v, 0.0));
   for (double& v : w) v /= sum;
@@ -211,6 +214,20 @@ void TetLocator::each_tet_near(const Vec3d& p, double radius, F&& f) const {
         const std::size_t k = bucket({x, y, z});
         for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) f(items_[std::size_t(i)]);
       }
+}
+
+template <class F>
+bool TetLocator::any_tet_near(const Vec3d& p, double radius, F&& f) const {
+  const Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
+  const Cell a = cell_of(lo), b = cell_of(hi);
+  for (int z = a[2]; z <= b[2]; ++z)
+    for (int y = a[1]; y <= b[1]; ++y)
+      for (int x = a[0]; x <= b[0]; ++x) {
+        const std::size_t k = bucket({x, y, z});
+        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i)
+          if (f(items_[std::size_t(i)])) return true;
+      }
+  return false;
 }
 
 void TetLocator::near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const {
@@ -253,6 +270,41 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
   return best;
 }
 
+TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const {
+  if (!deep_inside(hint, p, radius)) return containing_or_near(p, mask, radius);
+  // containing(p, mask) finds the hint (no other tet contains p) with these weights, or nothing;
+  // then no masked tet is within `radius` (every other tet is farther than p's depth).
+  TetLink link;
+  if (mask[std::size_t(hint)]) {
+    link.tet = hint;
+    link.weights = weights(hint, p);
+  }
+  return link;
+}
+
+bool TetLocator::covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const {
+  if (deep_inside(hint, p, radius)) return mask[std::size_t(hint)] != 0;
+  if (!(radius > 0)) return containing(p, mask).tet >= 0;
+  // containing_or_near finds a tet when one contains p (containing's test: every weight at least
+  // -kInsideTolerance) or when one's clamped distance is below `radius` (strictly: its search
+  // starts at best = radius). So the first masked tet that passes either test answers, in any
+  // order; the bounding-box test skips those that cannot (with containing_or_near's margin).
+  const double bound = radius * (1 + 1e-9);
+  return any_tet_near(p, radius, [&](std::int32_t t) {
+    if (!mask[std::size_t(t)]) return false;
+    const auto& bx = box_[std::size_t(t)];
+    double gap2 = 0;
+    for (std::size_t d = 0; d < 3; ++d) {
+      const double g = std::max({bx[d] - p[d], 0.0, p[d] - bx[3 + d]});
+      gap2 += g * g;
+    }
+    if (gap2 > bound * bound) return false;
+    const std::array<double, 4> w = weights(t, p);
+    if (std::min({w[0], w[1], w[2], w[3]}) >= -kInsideTolerance) return true;  // containing's test
+    return clamped_distance(t, p, w) < radius;
+  });
+}
+
 NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
   Vec3d hi;
   bounds(mesh, lo_, hi);
@@ -271,7 +323,8 @@ NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
   for (std::size_t i = 0; i < mesh.node_count(); ++i) items_[std::size_t(cursor[b[i]]++)] = std::int32_t(i);
 }
 
-void NodeLocator::in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const {
+template <class Keep>
+void NodeLocator::each_in_box(const Vec3d& lo, const Vec3d& hi, Keep&& keep, std::vector<std::int32_t>& out) const {
   const auto a = cell(lo, lo_, size_, dims_), b = cell(hi, lo_, size_, dims_);
   for (int z = a[2]; z <= b[2]; ++z)
     for (int y = a[1]; y <= b[1]; ++y)
@@ -279,11 +332,20 @@ void NodeLocator::in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int3
         const std::size_t k = (std::size_t(z) * std::size_t(dims_[1]) + std::size_t(y)) * std::size_t(dims_[0]) + std::size_t(x);
         for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) {
           const std::int32_t n = items_[std::size_t(i)];
+          if (!keep(n)) continue;
           const Vec3d q = mesh_.point(std::size_t(n));
           if (q[0] >= lo[0] && q[0] <= hi[0] && q[1] >= lo[1] && q[1] <= hi[1] && q[2] >= lo[2] && q[2] <= hi[2])
             out.push_back(n);
         }
       }
+}
+
+void NodeLocator::in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const {
+  each_in_box(lo, hi, [](std::int32_t) { return true; }, out);
+}
+
+void NodeLocator::in_box(const Vec3d& lo, const Vec3d& hi, const std::vector<std::int32_t>& keep, std::vector<std::int32_t>& out) const {
+  each_in_box(lo, hi, [&](std::int32_t n) { return keep[std::size_t(n)] > 0; }, out);
 }
 
 std::int32_t NodeLocator::nearest(const Vec3d& p) const {

@@ -26,6 +26,15 @@ class TetLocator {
   // extrapolating the tet's linear field, so that affine motions (rigid ones among them) are
   // still reproduced exactly. tet = -1 if there is none.
   TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const;
+  // The same answer, to the bit, given a hint: a tet that may contain p (-1: none known; a
+  // multiresolution node's link to the coarser level is one). When p lies deeper than `radius`
+  // inside it, no other tet contains p or comes within `radius` of it (tets do not overlap), so
+  // that tet answers if masked and none does otherwise, without a search.
+  TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const;
+  // Whether containing_or_near(p, mask, radius, hint) would find a tet (tet >= 0), without finding
+  // which: the first masked tet that contains p or lies nearer than `radius` answers. (Coverage
+  // asks only this, and most of the points it asks about lie in or next to a masked tet.)
+  bool covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint = -1) const;
   // Barycentric weights of p in tet t (sum 1, any sign).
   std::array<double, 4> weights(std::int32_t t, const Vec3d& p) const;
   // Appends (ascending, each once) the tets within `radius` (m) of p, as containing_or_near measures
@@ -36,15 +45,21 @@ class TetLocator {
   double depth(std::int32_t t, const Vec3d& p) const;
 
  private:
+  // Whether p lies deeper than `radius` inside tet `hint` (the hinted shortcut above).
+  bool deep_inside(std::int32_t hint, const Vec3d& p, double radius) const { return hint >= 0 && !(radius < 0) && depth(hint, p) > radius; }
   using Cell = std::array<int, 3>;
   Cell cell_of(const Vec3d& p) const;
   // Distance (m) from p to the point of tet t its weights give, clamped to >= 0 and renormalised
   // (0 inside; an upper bound of the distance to the tet outside); those weights in *clamped.
   double clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4>* clamped = nullptr) const;
+  double clamped_distance(std::int32_t t, const Vec3d& p, std::array<double, 4> w, std::array<double, 4>* clamped = nullptr) const;  // w: weights(t, p)
   // f(t) for every tet listed in the buckets of the box of half-side `radius` around p (with
   // repeats: a tet is listed in every bucket its bounding box touches).
   template <class F>
   void each_tet_near(const Vec3d& p, double radius, F&& f) const;
+  // The same until f returns true; returns whether it did.
+  template <class F>
+  bool any_tet_near(const Vec3d& p, double radius, F&& f) const;
   std::size_t bucket(const Cell& c) const { return (std::size_t(c[2]) * dims_[1] + std::size_t(c[1])) * dims_[0] + std::size_t(c[0]); }
   const TetMesh& mesh_;
   Vec3d lo_{}, size_{};
@@ -60,8 +75,12 @@ class NodeLocator {
   std::int32_t nearest(const Vec3d& p) const;  // nearest node (lowest index on ties)
   // Appends to `out` the nodes inside the box [lo, hi] (inclusive), in bucket order.
   void in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const;
+  // The same, only the nodes n with keep[n] > 0.
+  void in_box(const Vec3d& lo, const Vec3d& hi, const std::vector<std::int32_t>& keep, std::vector<std::int32_t>& out) const;
 
  private:
+  template <class Keep>
+  void each_in_box(const Vec3d& lo, const Vec3d& hi, Keep&& keep, std::vector<std::int32_t>& out) const;
   const TetMesh& mesh_;
   Vec3d lo_{}, size_{};
   std::array<int, 3> dims_{1, 1, 1};
