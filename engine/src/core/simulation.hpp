@@ -273,7 +273,7 @@ class Simulation {
   std::array<std::array<double, 3>, 4> corner_forces(int body, int level, std::size_t tet) const;
 
   void elastic_energies(Executor& exec, double& elastic) const;
-  double body_energy(const SimBody<T>& body) const;    // kinetic + elastic of one body (J)
+  double body_energy(Executor* exec, const SimBody<T>& body) const;  // kinetic + elastic of one body (J); exec may be null
   void add_elastic_energy(Executor* exec, const SimBody<T>& body, const Level<T>& L, double& sum) const;
   void take_energy(SimBody<T>& body, double excess);   // from its motion about its mean velocity
   double motion_energy(const SimBody<T>& body) const;  // what take_energy can take at most (J)
