@@ -429,6 +429,40 @@ TEST(TetLocator, ContainingOrNearIsTheBruteForceAnswer) {
   EXPECT_GT(near_answers, 100);  // the near search decided most of them
 }
 
+TEST(TetLocator, HintsAndCoversAgreeWithinTheContainmentTolerance) {
+  // containing() accepts a tet whose weights are all >= -1e-10 at p, so a point just outside a tet
+  // (by less than 1e-10 of its size) is "in" it. Two tets sharing the face x + y + z = 1: A below
+  // it, B above it. A point 1e-12 inside A (across the face from B) is contained in B within the
+  // tolerance; a point 1e-12 outside A's face x = 0, in no other tet, is contained in A within it
+  // and lies outside A's bounding box. With radii of 0 and far below the tolerance, the hinted
+  // search and covers() must still give containing_or_near's answer (found by review of the
+  // first version, which pruned or short-cut these).
+  TetMesh m;
+  m.points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  m.tets = {{0, 1, 2, 3}, {1, 2, 3, 4}};  // A, B (both positively oriented)
+  ASSERT_GT(signed_tet_volume(m.point(0), m.point(1), m.point(2), m.point(3)), 0);
+  ASSERT_GT(signed_tet_volume(m.point(1), m.point(2), m.point(3), m.point(4)), 0);
+  const detail::TetLocator loc(m);
+  const double d = 1e-12;
+  const Vec3d inside_a_by_the_face{1.0 / 3 - d, 1.0 / 3, 1.0 / 3};
+  const Vec3d outside_a{-d, 0.2, 0.2};
+  const std::vector<std::uint8_t> only_b{0, 1}, only_a{1, 0};
+  for (const double radius : {0.0, 1e-13, 1e-3}) {
+    for (const auto& [p, mask, hint] : {std::tuple{inside_a_by_the_face, only_b, 0}, std::tuple{outside_a, only_a, 0},
+                                        std::tuple{outside_a, only_a, -1}, std::tuple{inside_a_by_the_face, only_a, 0}}) {
+      const TetLink plain = loc.containing_or_near(p, mask, radius);
+      const TetLink hinted = loc.containing_or_near(p, mask, radius, hint);
+      EXPECT_EQ(hinted.tet, plain.tet) << "radius " << radius << " hint " << hint;
+      for (int c = 0; c < 4; ++c) EXPECT_EQ(hinted.weights[std::size_t(c)], plain.weights[std::size_t(c)]);
+      EXPECT_EQ(loc.covers(p, mask, radius, hint), plain.tet >= 0) << "radius " << radius << " hint " << hint;
+      EXPECT_EQ(loc.covers(p, mask, radius), plain.tet >= 0) << "radius " << radius;
+    }
+  }
+  // The tolerance cases themselves (what the checks above rely on).
+  EXPECT_EQ(loc.containing(inside_a_by_the_face, only_b).tet, 1);
+  EXPECT_EQ(loc.containing(outside_a, only_a).tet, 0);
+}
+
 TEST(TetLocator, HintsAndCoversGiveContainingOrNearsAnswer) {
   // With a hint (the tet holding p, as a node's link to the coarser level gives it), a point deeper
   // than the radius inside it is answered by that tet alone; covers() says whether a tet would be

@@ -86,6 +86,7 @@ TetLocator::TetLocator(const TetMesh& mesh) : mesh_(mesh) {
     tet_rest_geometry(p[0], p[1], p[2], p[3], &volume, inv.data());
     for (int k = 0; k < 3; ++k) inv[9 + std::size_t(k)] = p[0][k];
     box_[t] = {a[0], a[1], a[2], b[0], b[1], b[2]};
+    slack_ = std::max(slack_, 4 * kInsideTolerance * std::hypot(b[0] - a[0], b[1] - a[1], b[2] - a[2]));
     range[t] = {cell_of(a), cell_of(b)};
     for (int z = range[t][0][2]; z <= range[t][1][2]; ++z)
       for (int y = range[t][0][1]; y <= range[t][1][1]; ++y)
@@ -272,8 +273,9 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
 
 TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const {
   if (!deep_inside(hint, p, radius)) return containing_or_near(p, mask, radius);
-  // containing(p, mask) finds the hint (no other tet contains p) with these weights, or nothing;
-  // then no masked tet is within `radius` (every other tet is farther than p's depth).
+  // containing(p, mask) finds the hint (no other tet contains p, even within the tolerance: see
+  // slack_) with these weights, or nothing; then no masked tet is within `radius` (every other
+  // tet is farther than p's depth).
   TetLink link;
   if (mask[std::size_t(hint)]) {
     link.tet = hint;
@@ -284,11 +286,18 @@ TetLink TetLocator::containing_or_near(const Vec3d& p, const std::vector<std::ui
 
 bool TetLocator::covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const {
   if (deep_inside(hint, p, radius)) return mask[std::size_t(hint)] != 0;
-  if (!(radius > 0)) return containing(p, mask).tet >= 0;
-  // containing_or_near finds a tet when one contains p (containing's test: every weight at least
-  // -kInsideTolerance) or when one's clamped distance is below `radius` (strictly: its search
-  // starts at best = radius). So the first masked tet that passes either test answers, in any
-  // order; the bounding-box test skips those that cannot (with containing_or_near's margin).
+  // containing_or_near finds a tet when containing(p, mask) does (a masked tet of p's bucket with
+  // every weight at least -kInsideTolerance), else when a masked tet's clamped distance is below
+  // `radius` (strictly: its search starts at best = radius, and its bounding-box test never skips
+  // such a tet). Each test here is the same, and the first tet that passes answers.
+  const Cell c = cell_of(p);
+  for (std::int32_t i = offsets_[bucket(c)]; i < offsets_[bucket(c) + 1]; ++i) {
+    const std::int32_t t = items_[std::size_t(i)];
+    if (!mask[std::size_t(t)]) continue;
+    const auto w = weights(t, p);
+    if (std::min({w[0], w[1], w[2], w[3]}) >= -kInsideTolerance) return true;
+  }
+  if (!(radius > 0)) return false;
   const double bound = radius * (1 + 1e-9);
   return any_tet_near(p, radius, [&](std::int32_t t) {
     if (!mask[std::size_t(t)]) return false;
@@ -299,9 +308,7 @@ bool TetLocator::covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, d
       gap2 += g * g;
     }
     if (gap2 > bound * bound) return false;
-    const std::array<double, 4> w = weights(t, p);
-    if (std::min({w[0], w[1], w[2], w[3]}) >= -kInsideTolerance) return true;  // containing's test
-    return clamped_distance(t, p, w) < radius;
+    return clamped_distance(t, p) < radius;
   });
 }
 

@@ -28,8 +28,11 @@ class TetLocator {
   TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius) const;
   // The same answer, to the bit, given a hint: a tet that may contain p (-1: none known; a
   // multiresolution node's link to the coarser level is one). When p lies deeper than `radius`
-  // inside it, no other tet contains p or comes within `radius` of it (tets do not overlap), so
-  // that tet answers if masked and none does otherwise, without a search.
+  // inside it (and than the containment tolerance's reach, slack_), no other tet contains p or
+  // comes within `radius` of it, so that tet answers if masked and none does otherwise, without a
+  // search. This assumes that the mesh's tets do not overlap (a valid mesh: the hierarchy's levels
+  // are Mesh_3's or Kuhn boxes; a folded mesh from a file would break it, and the coverage test
+  // relied on it before the hint existed).
   TetLink containing_or_near(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint) const;
   // Whether containing_or_near(p, mask, radius, hint) would find a tet (tet >= 0), without finding
   // which: the first masked tet that contains p or lies nearer than `radius` answers. (Coverage
@@ -45,8 +48,10 @@ class TetLocator {
   double depth(std::int32_t t, const Vec3d& p) const;
 
  private:
-  // Whether p lies deeper than `radius` inside tet `hint` (the hinted shortcut above).
-  bool deep_inside(std::int32_t hint, const Vec3d& p, double radius) const { return hint >= 0 && !(radius < 0) && depth(hint, p) > radius; }
+  // Whether p lies deeper than `radius` + slack_ inside tet `hint` (the hinted shortcut above).
+  bool deep_inside(std::int32_t hint, const Vec3d& p, double radius) const {
+    return hint >= 0 && !(radius < 0) && depth(hint, p) > radius + slack_;
+  }
   using Cell = std::array<int, 3>;
   Cell cell_of(const Vec3d& p) const;
   // Distance (m) from p to the point of tet t its weights give, clamped to >= 0 and renormalised
@@ -67,6 +72,9 @@ class TetLocator {
   std::vector<std::int32_t> offsets_, items_;    // bucket -> tets (CSR)
   std::vector<std::array<double, 12>> inverse_;  // per tet: rows of Dm^-1 (9) and corner 0 (3)
   std::vector<std::array<double, 6>> box_;       // per tet: its bounding box, lo (3) and hi (3), m
+  // m: how far outside a tet containing()'s tolerance reaches, at most (weights >= -tol: the tet
+  // scaled by 1 + 4 tol about its centroid; 4 tol times the largest bounding-box diagonal).
+  double slack_ = 0;
 };
 
 class NodeLocator {
