@@ -233,8 +233,8 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
   auto& F = sc.F;  // written for the stepped tets, and only they are read (a neighbour is read if stepped)
   // The peak is taken over squared strains and rooted once (sqrt is monotone and correctly
   // rounded: the root of the largest is the largest root, to the bit), per chunk of the level's
-  // stepped tets, the chunks on exec's threads: on the 50k-tet organ this part took a third of a
-  // decision (3 800 finest tets, 140 us on one thread).
+  // stepped tets, the chunks on exec's threads (a level of kSerialBelow stepped tets or more): on
+  // the 50k-tet organ this part took a third of a decision (3 800 finest tets, 140 us on one thread).
   double peak2 = 0;  // the body's largest squared Green-Lagrange strain |(F^T F - I) / 2|^2 over its stepped tets
   constexpr std::size_t kChunk = 256;  // tets per chunk: about 8 us of work, a few chunks per level
   for (int l = 0; l < levels; ++l) {
@@ -266,7 +266,10 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
         sc.chunk_peak[c] = top;
       }
     };
-    if (exec && chunks > 1) {
+    // In parallel from kSerialBelow tets, as the passes: below, the fork-join cost more than it
+    // saved (the 50k-tet organ at its middle level, 667 + 342 tets stepped: 56-57 us a decision in
+    // parallel, 36 on the calling thread; frame_probe, alternated x3, 2026-11-26).
+    if (exec && chunks > 1 && ids.size() >= kSerialBelow) {
       exec->parallel_for(chunks, 1, measure_chunks);
     } else {
       measure_chunks(Range{0, chunks});
