@@ -741,7 +741,7 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
     const std::int32_t* ids = energy_ids.data();
     const std::size_t n = energy_ids.size();
     if (exec)
-      exec->parallel_for(n, kTetGrain, [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
+      exec->parallel_for(n, pass_grain(n, kTetGrain), [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
     else
       element_energy_corotational_listed(ec, ids, Range{0, n}, out);
     for (std::size_t i = 0; i < n; ++i) sum += scratch[std::size_t(ids[i])];
@@ -749,7 +749,7 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
   }
   for (const Range& run : L.stepped_runs) {
     if (exec)
-      exec->parallel_for(run.size(), kTetGrain, [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
+      exec->parallel_for(run.size(), pass_grain(run.size(), kTetGrain), [&](Range r) { pass(ec, Range{run.begin + r.begin, run.begin + r.end}, out); });
     else
       pass(ec, run, out);
     for (std::size_t t = run.begin; t < run.end; ++t) sum += scratch[t];
