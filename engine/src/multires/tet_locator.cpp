@@ -206,18 +206,6 @@ double TetLocator::clamped_distance(std::int32_t t, const Vec3d& p, std::array<d
 }
 
 template <class F>
-void TetLocator::each_tet_near(const Vec3d& p, double radius, F&& f) const {
-  const Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
-  const Cell a = cell_of(lo), b = cell_of(hi);
-  for (int z = a[2]; z <= b[2]; ++z)
-    for (int y = a[1]; y <= b[1]; ++y)
-      for (int x = a[0]; x <= b[0]; ++x) {
-        const std::size_t k = bucket({x, y, z});
-        for (std::int32_t i = offsets_[k]; i < offsets_[k + 1]; ++i) f(items_[std::size_t(i)]);
-      }
-}
-
-template <class F>
 bool TetLocator::any_tet_near(const Vec3d& p, double radius, F&& f) const {
   const Vec3d lo{p[0] - radius, p[1] - radius, p[2] - radius}, hi{p[0] + radius, p[1] + radius, p[2] + radius};
   const Cell a = cell_of(lo), b = cell_of(hi);
@@ -229,6 +217,14 @@ bool TetLocator::any_tet_near(const Vec3d& p, double radius, F&& f) const {
           if (f(items_[std::size_t(i)])) return true;
       }
   return false;
+}
+
+template <class F>
+void TetLocator::each_tet_near(const Vec3d& p, double radius, F&& f) const {
+  any_tet_near(p, radius, [&](std::int32_t t) {
+    f(t);
+    return false;
+  });
 }
 
 void TetLocator::near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const {
