@@ -308,7 +308,9 @@ bool same_state(const detail::ActivationState& a, const detail::ActivationState&
 
 // Adaptivity changes a few targets at a time: the incremental update must reach the state a
 // fresh evaluation of the same targets gives, and examine a number of tets and nodes that
-// depends on the change, not on the body.
+// depends on the change, not on the body. A third of the rounds are then undone as undo_change
+// does (the targets set back, in reverse order, and update() again): that must reach the fresh
+// state of the targets before the round.
 void incremental_matches_fresh(const Hierarchy& h, int rounds, std::uint64_t seed) {
   const int n = int(h.levels());
   std::vector<std::vector<int>> targets(static_cast<std::size_t>(n));
@@ -321,7 +323,14 @@ void incremental_matches_fresh(const Hierarchy& h, int rounds, std::uint64_t see
     r ^= r << 17;
     return r;
   };
+  int undone = 0;
   for (int round = 0; round < rounds; ++round) {
+    struct Was {
+      int level;
+      std::int32_t node;
+      int target;
+    };
+    std::vector<Was> round_changes;
     // Split or merge a few nodes, keeping a split node's parent split (as adaptivity does).
     for (int k = 0; k < 3; ++k) {
       const int l = int(next() % std::uint64_t(n - 1));
@@ -337,6 +346,7 @@ void incremental_matches_fresh(const Hierarchy& h, int rounds, std::uint64_t see
           child_split |= targets[std::size_t(l) + 1][std::size_t(lk.children[std::size_t(c)])] > l + 1;
         if (child_split) continue;
       }
+      round_changes.push_back({l, node, targets[std::size_t(l)][std::size_t(node)]});
       targets[std::size_t(l)][std::size_t(node)] = t;
       state.set_target(l, node, t);
     }
@@ -345,7 +355,17 @@ void incremental_matches_fresh(const Hierarchy& h, int rounds, std::uint64_t see
     std::string why;
     ASSERT_TRUE(same_state(state, fresh, why)) << "round " << round << ": " << why;
     (void)ch;
+    if (round_changes.empty() || next() % 3 != 0) continue;
+    for (auto c = round_changes.rbegin(); c != round_changes.rend(); ++c) {
+      targets[std::size_t(c->level)][std::size_t(c->node)] = c->target;
+      state.set_target(c->level, c->node, c->target);
+    }
+    state.update();
+    ++undone;
+    const detail::ActivationState before(h, targets);
+    ASSERT_TRUE(same_state(state, before, why)) << "round " << round << " undone: " << why;
   }
+  EXPECT_GT(undone, rounds / 6);
 }
 
 TEST(ActivationState, IncrementalUpdatesMatchAFreshEvaluationOnANestedBox) {
