@@ -398,17 +398,22 @@ TEST(ActivationState, IncrementalUpdatesMatchAFreshEvaluationOnTheOrgan) {
 }
 #endif
 
+// Deterministic numbers in [0, 1) for the locator tests (a 64-bit LCG, its top 53 bits).
+struct Uniform {
+  std::uint64_t seed;
+  double operator()() {
+    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
+    return double(seed >> 11) * 0x1.0p-53;
+  }
+};
+
 TEST(TetLocator, ContainingOrNearIsTheBruteForceAnswer) {
   // containing_or_near skips the tets whose bounding box lies farther than the best so far: the
   // answer must be the one a scan of every tet gives (the same tet, the same weights), for points
   // inside, at the surface and outside, with masks of few stepped tets (ghost sources far away).
   const TetMesh m = make_box_mesh({0, 0, 0}, {0.4, 0.1, 0.1}, {12, 3, 3}, 6);
   const detail::TetLocator loc(m);
-  std::uint64_t seed = 12345;
-  auto uniform = [&] {  // in [0, 1)
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return double(seed >> 11) * 0x1.0p-53;
-  };
+  Uniform uniform{12345};
   // The clamped distance of the near search (tet_locator.cpp): the distance to the point of
   // the tet's barycentric weights clamped at 0 and normalised.
   auto clamped = [&](std::size_t t, const Vec3d& p) {
@@ -492,11 +497,7 @@ TEST(TetLocator, HintsAndCoversGiveContainingOrNearsAnswer) {
   // (a tet elsewhere) and absent.
   const TetMesh m = make_box_mesh({0, 0, 0}, {0.4, 0.1, 0.1}, {12, 3, 3}, 6);
   const detail::TetLocator loc(m);
-  std::uint64_t seed = 2026;
-  auto uniform = [&] {  // in [0, 1)
-    seed = seed * 6364136223846793005ull + 1442695040888963407ull;
-    return double(seed >> 11) * 0x1.0p-53;
-  };
+  Uniform uniform{2026};
   int shortcuts = 0, covered = 0, near_only = 0;
   for (int trial = 0; trial < 2000; ++trial) {
     std::vector<std::uint8_t> mask(m.tet_count(), 0);
