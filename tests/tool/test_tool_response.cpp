@@ -167,6 +167,40 @@ TEST(ToolResponse, FloatWorldAlsoKeepsTheBound) {
   EXPECT_GT(w.tool_reading(tool).force[2], 0.1);
 }
 
+// A tool that finds itself 2 mm deep (a host pose, or a coarser surface made active under it) over
+// a top vertex the slab holds fixed: the point of the surface nearest the tool's centre is almost
+// on that vertex, with weights of about 0.01 on the triangle's free corners. The least-squares
+// move of those corners, b_k d / sum_j b_j^2, is then about d / 0.01: it flung a corner 80 m on
+// the adaptive organ (a triangle with a ghost corner). A free corner moves at most twice the
+// point's push per triangle and pass (docs/tool.md): what it cannot reach stays inside the tool
+// and is reported, and nothing is flung.
+TEST(ToolResponse, APointOnAHeldCornerDoesNotFlingTheFreeCorners) {
+  World w(world_def());
+  BodyDef b = slab();
+  RegionDef corner;  // the node at the centre of the top face
+  corner.min = {-1e-9, -1e-9, 0.05 - 1e-9};
+  corner.max = {1e-9, 1e-9, 0.05 + 1e-9};
+  b.fixed.push_back(corner);
+  w.add_body(b);
+  ToolDef t = pusher();
+  const double depth = 0.002;
+  t.keyframes = {{0.0, {1.0e-4, 0.5e-4, 0.05 + 0.01 - depth}}};
+  const ToolId tool = w.add_tool(t);
+  w.step();
+  const Level<double>& L = w.level<double>(0);
+  double farthest = 0;  // m, the largest move of a node in the step
+  for (std::size_t n = 0; n < L.node_count; ++n) {
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) d2 += (L.x[k][n] - L.X[k][n]) * (L.x[k][n] - L.X[k][n]);
+    farthest = std::max(farthest, std::sqrt(d2));
+  }
+  const ToolReading r = w.tool_reading(tool);
+  std::printf("farthest node move %.6g m (%.6g x the depth), %d held, penetration left %.3g m\n", farthest, farthest / depth,
+              r.held_nodes, r.max_penetration);
+  EXPECT_GT(r.held_nodes, 0);
+  EXPECT_LE(farthest, 2 * depth);  // measured 1.99992 x the depth: one capped push
+}
+
 // A two-level slab (coarse cells 2 x those of slab()): contact works on whichever level is
 // active under the tool — the fine level in a region around it, or the coarse one everywhere.
 void multilevel_press(ActiveDef::Kind kind, int expect_level) {

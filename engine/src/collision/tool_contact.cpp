@@ -5,7 +5,8 @@
 // Response (thesis ch. 6 §2.2): for each touched triangle, the point closest to the tool's axis
 // is carried onto the tool's surface by moving the free vertices with weights b_k (the point's
 // barycentric coordinates): dx_k = b_k d / sum_j b_j^2, the smallest displacement (least squares)
-// that moves the point by d. Vertices the tool moved lose their velocity into the tool.
+// that moves the point by d, each vertex at most kMaxCornerPush |d| (tool_contact.hpp). Vertices
+// the tool moved lose their velocity into the tool.
 #include "tool_contact.hpp"
 
 #include <algorithm>
@@ -210,7 +211,7 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
       if (sum_w2 < 1e-12) continue;  // the point is on non-free vertices only
       for (int k = 0; k < 3; ++k) {
         if (w[k] == 0) continue;
-        const double s = w[k] / sum_w2;
+        const double s = std::min(w[k] / sum_w2, kMaxCornerPush);
         const auto n = std::size_t(node[k]);
         for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) + s * d[std::size_t(c)]);
         const auto i = std::size_t(tri[std::size_t(k)]);
