@@ -62,13 +62,13 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
 // neighbouring triangles share vertices, and moving one moves its neighbours' points.
 inline constexpr int kContactIterations = 4;
 
-// The most a free corner moves, per triangle and pass, over the push d of the triangle's point:
-// the least-squares move b_k d / sum_j b_j^2 (over the free corners j) is at most 1.37 |d| when
-// every corner is free (at b = (1/sqrt 3, ...)), so a cap of 2 changes nothing there; but when the
-// point lies almost on a fixed or ghost corner the free weights are small and the move grows as
-// d / b_k (a ghost corner on the adaptive organ flung a vertex 80 m; tests/tool/test_tool_response.cpp).
-// Capped, the free corners move what they sensibly can and the rest stays inside the tool, where
-// max_penetration reports it, until the held corner moves.
+// The most a free corner may move, per triangle and pass, over the push d of the triangle's
+// point: the least-squares move b_k d / sum_j b_j^2 (over the free corners j) is at most 1.37 |d|
+// when every corner is free (at b = (1/sqrt 3, ...)), so nothing changes there; but when the point
+// lies almost on a fixed or ghost corner the free weights are small and the move grows as d / b_k
+// (a ghost corner on the adaptive organ flung a vertex 80 m). Such a triangle is left to its
+// neighbours: the tool stays inside next to the held corner (max_penetration reports it). Capping
+// the move instead ratcheted (the point never came out, so the corner was pushed again every pass).
 inline constexpr double kMaxCornerPush = 2;
 
 }  // namespace pliant::detail
