@@ -18,6 +18,7 @@ Command add_stress_command(CLI::App& app) {
     std::int64_t max_scenes = -1;
     std::vector<std::string> meshes;
     std::string report, scene;
+    bool tools = false;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand("stress", "Random scenes back to back: NaN, energy, memory and reproducibility checks");
@@ -29,6 +30,9 @@ Command add_stress_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--meshes", o->meshes, "Folders of meshes to draw scenes from (default: the shipped data/meshes; env PLIANT_MESHES)");
   sub->add_option("--report", o->report, "Also write the final report to this file");
+  sub->add_flag("--tools", o->tools,
+                "Also press a sphere tool into one adaptive scene in three (random size, depth, path and refine_near); "
+                "off by default: docs/stress.md says what it finds");
   sub->add_option("--scene", o->scene, "Run only the scene of this seed (as printed for a failure), e.g. 0x71c1...");
   return {sub, [o]() -> int {
             if (!(o->seconds >= 0)) throw InputError("--seconds must be >= 0");
@@ -39,6 +43,7 @@ Command add_stress_command(CLI::App& app) {
             so.seed = o->seed;
             so.max_scenes = o->max_scenes;
             so.repeat_every = o->repeat_every;
+            so.tools = o->tools;
             if (o->meshes.empty()) {
               if (const char* env = std::getenv("PLIANT_MESHES"))
                 so.mesh_dirs = {env};

@@ -122,6 +122,9 @@ struct Scene {
   bool adaptive = false;
   std::string adapt_kind;  // "nested" | "non-nested"
   double cp = 0;
+  // A tool pressed into the body (random_adaptive_scene, one scene in three): keyframe times and
+  // positions as for the pulse, fractions of the run until timeline_in_seconds.
+  std::optional<ToolDef> tool;
 };
 
 // An adaptive body: a box of 2 or 3 levels, ratio 2, 6 tets per cell (fine cells a multiple of
@@ -229,13 +232,41 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
     s.dt_mode = "substep";
   }
   s.steps = r.integer(1500, 3000);
+  // With StressOptions::tools, one adaptive scene in three also has a sphere tool, from a stream
+  // of its own (the draws above stay as they were): it comes down onto the top face at a random
+  // point, presses 10-40% of the thickness in, slides along the bar and leaves. Its refine_near is
+  // auto (the finest level around the tool), 0 (only the strain refines: coarser surfaces get made
+  // active under the tool, the case that flung a corner 80 m on the organ, docs/tool.md) or up to
+  // a coarsest cell. The monitor counts the tool's work (EnergyMonitor::add_work).
+  Rng tr{seed ^ 0x70015ca1e5eedull};
+  std::string tool_text;
+  if (o.tools && tr.chance(1.0 / 3.0)) {
+    ToolDef t;
+    t.name = "stress_tool";
+    t.shape.radius = tr.uniform(0.3, 1.0) * std::min(size[1], size[2]);
+    const double depth = tr.uniform(0.1, 0.4) * size[2];
+    const double x0 = tr.uniform(0.3, 0.9) * length;
+    const double x1 = std::clamp(x0 + tr.uniform(-0.3, 0.3) * length, 0.2 * length, length);
+    const double y = tr.uniform(0.2, 0.8) * size[1];
+    const double touch = size[2] + t.shape.radius;  // centre height at which the sphere touches the top
+    const double t0 = tr.uniform(0, 0.3), t1 = t0 + tr.uniform(0.05, 0.15), t2 = t1 + tr.uniform(0, 0.2),
+                 t3 = t2 + tr.uniform(0.05, 0.15);
+    const double above = touch + 0.1 * t.shape.radius;
+    t.keyframes = {{0, {x0, y, above}}, {t0, {x0, y, above}}, {t1, {x0, y, touch - depth}}, {t2, {x1, y, touch - depth}},
+                   {t3, {x1, y, above}}};
+    const double near = tr.uniform();
+    ad.refine_near = near < 0.4 ? -1.0 : near < 0.8 ? 0.0 : tr.uniform(0, 1) * a;
+    tool_text = fmt::format(", tool r {:.3f} m {:.0f}% deep, refine_near {}", t.shape.radius, 100 * depth / size[2],
+                            ad.refine_near < 0 ? std::string("auto") : fmt::format("{:.3g}", ad.refine_near));
+    s.tool = t;
+  }
   s.description = fmt::format(
       "adaptive {} box {:.3f}x{:.3f}x{:.3f} {}x{}x{}x6, {} levels ({} fine tets), refine_above {:.3g} coarsen_below "
       "{:.3g}, {} {}, E={:.3g} nu={:g} rho={:.0f}{}, fixed end, {} pulse(s) of up to {:.3f} m, dt {}, {} thr",
       s.adapt_kind, size[0], size[1], size[2], cells[0], cells[1], cells[2], levels, s.mesh.tet_count(), ad.refine_above,
       ad.coarsen_below, to_string(b.model), to_string(s.world.precision), mat.young, mat.poisson, mat.density,
       damping == 0 ? "" : damping == 4 ? ", Rayleigh damping" : fmt::format(", mass damping {:.1f}/s", mat.damping.mass),
-      pulses, amp, s.dt_mode, s.world.threads);
+      pulses, amp, s.dt_mode, s.world.threads) + tool_text;
   return s;
 }
 
@@ -387,6 +418,22 @@ void timeline_in_seconds(Scene& sc, double duration) {
   }
   ad.min_dwell *= duration;
   ad.check_every *= duration;
+  if (sc.tool) {  // the same cap on the tool's speed, its path shrunk towards its first keyframe
+    auto& keys = sc.tool->keyframes;
+    double tool_shrink = 1;
+    for (std::size_t i = 1; i < keys.size(); ++i) {
+      const Vec3d& p = keys[i - 1].position;
+      const Vec3d& q = keys[i].position;
+      const double dist = std::sqrt((q[0] - p[0]) * (q[0] - p[0]) + (q[1] - p[1]) * (q[1] - p[1]) + (q[2] - p[2]) * (q[2] - p[2]));
+      const double dt = (keys[i].time - keys[i - 1].time) * duration;
+      if (dist > 0) tool_shrink = std::min(tool_shrink, 0.05 * sc.cp * dt / dist);
+    }
+    const Vec3d start = keys.front().position;
+    for (auto& k : keys) {
+      k.time *= duration;
+      for (int c = 0; c < 3; ++c) k.position[c] = start[c] + tool_shrink * (k.position[c] - start[c]);
+    }
+  }
 }
 
 }  // namespace
@@ -434,6 +481,7 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
     }
     world.emplace(sc.world);
     world->add_body(sc.body, sc.mesh);
+    if (sc.tool) world->add_tool(*sc.tool);
   } catch (const InputError& e) {
     out.status = "refused";
     out.message = e.what();
@@ -488,8 +536,16 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   out.adaptive = sc.adaptive;
   try {
     for (int i = 1; i <= sc.steps && ok; ++i) {
+      const Vec3d tool_before = sc.tool ? w.tool_pose(ToolId(0)).position : Vec3d{};
       w.step();
       mon.after_step(w);
+      if (sc.tool) {  // a kinematic tool drives the body: its work is its force times its displacement
+        const Vec3d tool_after = w.tool_pose(ToolId(0)).position;
+        const Vec3d f = w.tool_reading(ToolId(0)).force;
+        double dw = 0;
+        for (int k = 0; k < 3; ++k) dw += f[std::size_t(k)] * (tool_after[std::size_t(k)] - tool_before[std::size_t(k)]);
+        mon.add_work(dw);
+      }
       if (i % 20 == 0 || i == sc.steps) {
         ok = mon.sample(w);
         if (ok) ok = mass_ok = check_mass();
@@ -526,9 +582,9 @@ StressReport run_stress(const StressOptions& o) {
   const MeshCache& mc = cache(o);  // loaded before the clock and the memory baseline start
   rep.mesh_files = mc.files.size();
   rep.implicit_shapes = mc.implicit.size();
-  log(fmt::format("stress: seed {}, {} s, up to {} threads; {} shipped meshes, {} implicit shapes{}", o.seed,
+  log(fmt::format("stress: seed {}, {} s, up to {} threads; {} shipped meshes, {} implicit shapes{}{}", o.seed,
                   o.seconds, o.threads, mc.files.size(), mc.implicit.size(),
-                  meshing_available() ? "" : " (no meshing in this build)"));
+                  meshing_available() ? "" : " (no meshing in this build)", o.tools ? "; tools on (--tools)" : ""));
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   std::vector<std::pair<double, double>> samples;  // (s, bytes)
@@ -635,7 +691,8 @@ StressReport run_stress(const StressOptions& o) {
 
 std::string stress_text(const StressReport& r, const StressOptions& o) {
   std::string s;
-  s += fmt::format("seed {}, {:.0f} s wall, up to {} threads\n", o.seed, r.wall_s, o.threads);
+  s += fmt::format("seed {}, {:.0f} s wall, up to {} threads{}\n", o.seed, r.wall_s, o.threads,
+                   o.tools ? ", tools in one adaptive scene in three (--tools)" : "");
   s += fmt::format("scenes {}, steps {} ({:.0f} steps/s), failures {}, repeats {} (hash mismatches {})\n", r.scenes,
                    r.steps, r.wall_s > 0 ? double(r.steps) / r.wall_s : 0.0, r.failures, r.repeats,
                    r.repeat_mismatches);

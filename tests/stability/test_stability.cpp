@@ -364,10 +364,12 @@ TEST(Stress, AdaptiveScenesSplitMergeAndKeepTheirMass) {
 
 // Runs stress scenes by seed, each checked to still be the scene named (a prefix of its
 // description: the generator may not drift under a regression test) and to pass.
-std::vector<StressScene> run_named_scenes(const std::vector<std::pair<std::uint64_t, const char*>>& scenes) {
+std::vector<StressScene> run_named_scenes(const std::vector<std::pair<std::uint64_t, const char*>>& scenes,
+                                         bool tools = false) {
   StressOptions o;
   o.threads = 2;
   o.mesh_dirs = {PLIANT_DATA_MESHES};
+  o.tools = tools;
   std::vector<StressScene> out;
   for (const auto& [seed, what] : scenes) {
     StressScene s = run_stress_scene(seed, 0, o);
@@ -387,6 +389,22 @@ TEST(Stress, AdaptiveScenesOnceUnboundedPass) {
   for (const StressScene& s : run_named_scenes({{0xf89c5aca8c448a78ull, "adaptive nested box 0.147x0.031x0.030"},
                                                 {0xef6841424a61a275ull, "adaptive nested box 0.293x0.164x0.161"}}))
     EXPECT_GT(s.splits, 0);
+}
+
+TEST(Stress, ToolScenesThatExplodedPass) {
+  // Two adaptive scenes of `pliant stress --tools --seed 11` (docs/stress.md) that exploded under
+  // their tool (10^4-10^15 J for a budget of tens of J), both corotational double:
+  //  - a 0.128 m sphere on a 0.2 m block: the side faces' top edges touched it with its centre
+  //    behind their plane, and the deep push sent them a radius into the block (now radial);
+  //  - a 0.095 m sphere 38% deep into a 0.12 m block with refine_near 0 (coarser surfaces made
+  //    active under the tool): 2.1e4 J with the response before, 1.2e5 J with the corners' move
+  //    capped at 2 |d| instead of the triangle left alone (docs/tool.md).
+  for (const StressScene& s : run_named_scenes({{0xd11bdab429871e87ull, "adaptive nested box 0.199x0.169x0.191"},
+                                                {0x7bef6633f8a2c52ull, "adaptive nested box 0.159x0.100x0.123"}},
+                                               true)) {
+    EXPECT_NE(s.description.find(", tool r "), std::string::npos) << s.description;
+    EXPECT_GT(s.splits, 0);
+  }
 }
 
 TEST(Stress, ThreeLevelScenesThatGainedEnergyAtTheirChangesPass) {

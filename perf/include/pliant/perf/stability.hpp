@@ -11,6 +11,7 @@
 //   diverged - a DivergenceError (non-finite state, reported by World at the step it happened),
 //              or finite but unbounded energy, or a non-finite energy without DivergenceError.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -72,6 +73,9 @@ class EnergyMonitor {
   // Call after every step: accumulates the work of the non-free nodes and of gravity and loads
   // on the free ones (cheap, O(nodes)).
   void after_step(const World& world);
+  // Work given to the bodies by what after_step does not see (a tool: its force times its
+  // displacement over the step), J; counted by its magnitude, as the driven nodes' work.
+  void add_work(double joules) { work_ += std::abs(joules); }
   // Call every few steps (and at the end): samples K, U, P and checks (a). Returns false (with
   // why()) on a non-finite or unbounded energy.
   bool sample(const World& world);
@@ -180,6 +184,9 @@ struct StressOptions {
   int repeat_every = 5;         // every Nth scene is run again (other thread count) and hashes compared
   std::vector<std::filesystem::path> mesh_dirs;  // shipped meshes (*.msh, *.vtu, *.vtk), if present
   bool use_implicit = true;     // implicit shapes when meshing_available()
+  // One adaptive scene in three also gets a sphere tool (random_adaptive_scene). Off by default:
+  // the scenes, hashes and digests without it stay those of docs/stress.md.
+  bool tools = false;
   std::function<void(const std::string&)> log;   // progress lines
 };
 
