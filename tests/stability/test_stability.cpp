@@ -392,15 +392,21 @@ TEST(Stress, AdaptiveScenesOnceUnboundedPass) {
 }
 
 TEST(Stress, ToolScenesThatExplodedPass) {
-  // Two adaptive scenes of `pliant stress --tools --seed 11` (docs/stress.md) that exploded under
-  // their tool (10^4-10^15 J for a budget of tens of J), both corotational double:
+  // Adaptive scenes of `pliant stress --tools --seed 11` (docs/stress.md) that exploded under
+  // their tool (10x to 10^13x their energy budget):
   //  - a 0.128 m sphere on a 0.2 m block: the side faces' top edges touched it with its centre
   //    behind their plane, and the deep push sent them a radius into the block (now radial);
   //  - a 0.095 m sphere 38% deep into a 0.12 m block with refine_near 0 (coarser surfaces made
   //    active under the tool): 2.1e4 J with the response before, 1.2e5 J with the corners' move
-  //    capped at 2 |d| instead of the triangle left alone (docs/tool.md).
+  //    capped at 2 |d| instead of the triangle left alone (docs/tool.md);
+  //  - a 2.8 cm sphere on a 3 cm bar (springs, non-nested) and a 2.6 cm one 37% deep (stvk): 185x
+  //    and 10x their budget, a top triangle that the tool had turned over taking the deep push,
+  //    2r through the bar (now only an axis that crossed the triangle in the step is pushed
+  //    through).
   for (const StressScene& s : run_named_scenes({{0xd11bdab429871e87ull, "adaptive nested box 0.199x0.169x0.191"},
-                                                {0x7bef6633f8a2c52ull, "adaptive nested box 0.159x0.100x0.123"}},
+                                                {0x7bef6633f8a2c52ull, "adaptive nested box 0.159x0.100x0.123"},
+                                                {0x4cc8b51c7c16b23dull, "adaptive non-nested box 0.182x0.033x0.029"},
+                                                {0x6754da3a0e15dfbull, "adaptive nested box 0.250x0.070x0.136"}},
                                                true)) {
     EXPECT_NE(s.description.find(", tool r "), std::string::npos) << s.description;
     EXPECT_GT(s.splits, 0);

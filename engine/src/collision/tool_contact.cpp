@@ -195,19 +195,23 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
       const P3 n_out = mul(normal_out, 1 / nn);
       const P3 from_axis = sub(st.on_triangle.point, axis_point);
       const double dist = std::sqrt(st.distance2);
-      // The nearest point is on the triangle's edge or corner: the axis passes beside the triangle,
-      // not through it, wherever it is against the triangle's plane.
+      // The axis went through the triangle in this window: behind its plane now, over the
+      // triangle (the nearest point inside it, not on an edge or corner), and in front of the
+      // plane at the window's start. Only then is the point pushed through to the tool's far side.
       const bool beside = st.on_triangle.w[0] == 0 || st.on_triangle.w[1] == 0 || st.on_triangle.w[2] == 0;
+      const P3 axis_point0 = add(a0, mul(sub(b0, a0), st.s));
+      const bool crossed = dot(from_axis, n_out) >= 0 && !beside && dot(sub(axis_point0, st.on_triangle.point), n_out) > 0;
       P3 d;
-      if ((dot(from_axis, n_out) < 0 || beside) && dist > 1e-12 * r) {
-        // The axis is outside the body, in front of the triangle, or beside it (a tool wider than
-        // the body meeting a side face at its edge): push radially onto the tool's surface.
+      if (!crossed && dist > 1e-12 * r) {
+        // The axis is outside the body in front of the triangle, or beside it (a tool wider than
+        // the body meeting a side face at its edge), or was already behind the plane (a triangle
+        // the tool has turned over): push radially onto the tool's surface.
         d = mul(from_axis, (r - dist) / dist);
       } else {
-        // The axis is at or behind the triangle's plane, over the triangle (a deep push): along
-        // the inward normal, to a tool radius beyond the axis. (Taken beside the triangle, this
-        // pushed a side face's top edge r deep into a body narrower than the tool: a stress
-        // scene, a 0.128 m sphere on a 0.17 m block, exploded.)
+        // A deep push: along the inward normal, to a tool radius beyond the axis. (Taken whenever
+        // the axis was behind the plane, it sent a side face's top edge a radius into a body
+        // narrower than the tool, and a top triangle the tool had turned over 2r through a 3 cm
+        // bar: two stress scenes exploded.)
         d = mul(n_out, -(r + dot(sub(axis_point, st.on_triangle.point), mul(n_out, -1.0))));
       }
       double sum_w2 = 0;
