@@ -536,16 +536,12 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   out.adaptive = sc.adaptive;
   try {
     for (int i = 1; i <= sc.steps && ok; ++i) {
-      const Vec3d tool_before = sc.tool ? w.tool_pose(ToolId(0)).position : Vec3d{};
+      const double tool_work = sc.tool ? w.tool_reading(ToolId(0)).work_total : 0.0;
       w.step();
       mon.after_step(w);
-      if (sc.tool) {  // a kinematic tool drives the body: its work is its force times its displacement
-        const Vec3d tool_after = w.tool_pose(ToolId(0)).position;
-        const Vec3d f = w.tool_reading(ToolId(0)).force;
-        double dw = 0;
-        for (int k = 0; k < 3; ++k) dw += f[std::size_t(k)] * (tool_after[std::size_t(k)] - tool_before[std::size_t(k)]);
-        mon.add_work(dw);
-      }
+      // A kinematic tool drives the body: its work over the step and its sub-steps
+      // (ToolReading::work_total), as the driven nodes' by its magnitude.
+      if (sc.tool) mon.add_work(w.tool_reading(ToolId(0)).work_total - tool_work);
       if (i % 20 == 0 || i == sc.steps) {
         ok = mon.sample(w);
         if (ok) ok = mass_ok = check_mass();

@@ -243,6 +243,36 @@ TEST(ToolResponse, AToolWiderThanTheBodyPushesItsSideFacesRadially) {
   EXPECT_LE(farthest, 0.06);  // measured 0.0573 m: the 5 cm push and the bulge (0.128 m before)
 }
 
+// ToolReading::work: the work of the tool on the body. Undamped, the slab pressed and held holds
+// what it was given, less what the inelastic contact lost; damped, less again; a tool at rest
+// does none.
+TEST(ToolResponse, ItsWorkIsTheEnergyTheBodyReceived) {
+  for (const bool damped : {false, true}) {
+    World w(world_def());
+    BodyDef b = slab();
+    if (!damped) b.material.damping = {};
+    w.add_body(b);
+    const ToolId tool = w.add_tool(pusher());
+    double steps_sum = 0, held_still = 0;
+    while (w.time() < 0.5) {
+      w.step();
+      steps_sum += w.tool_reading(tool).work;
+      if (w.time() > 0.2 + w.dt()) held_still += std::abs(w.tool_reading(tool).work);  // held from 0.2 s
+    }
+    const ToolReading r = w.tool_reading(tool);
+    const Energies e = w.energies();
+    std::printf("%s: work %.6g J (steps summed %.6g, while held %.3g), kinetic + elastic %.6g J\n",
+                damped ? "damped" : "undamped", r.work_total, steps_sum, held_still, e.kinetic + e.elastic);
+    EXPECT_NEAR(r.work_total, steps_sum, 1e-12 * std::abs(steps_sum));
+    EXPECT_EQ(held_still, 0.0);
+    EXPECT_GT(r.work_total, 0);
+    EXPECT_LT(e.kinetic + e.elastic, r.work_total);
+    // Undamped, measured 0.53 of the work: the rest went into the inelastic contact (the surface
+    // ringing against the tool as it presses).
+    if (!damped) EXPECT_GT(e.kinetic + e.elastic, 0.5 * r.work_total);
+  }
+}
+
 // A two-level slab (coarse cells 2 x those of slab()): contact works on whichever level is
 // active under the tool — the fine level in a region around it, or the coarse one everywhere.
 void multilevel_press(ActiveDef::Kind kind, int expect_level) {

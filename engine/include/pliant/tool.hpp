@@ -19,6 +19,11 @@ struct ToolReading {
                                //   down into a body reads +z). The reaction of the nodes the tool
                                //   holds: the sum of the internal (elastic + viscous) forces and
                                //   loads on them (Newton's third law; docs/tool.md)
+  double work = 0;             // J, the work the tool did on the bodies in the last step: its motion
+                               //   against the held nodes' forces and against the impulses it gave
+                               //   them (docs/tool.md); 0 for a tool at rest. What an energy
+                               //   budget counts (pliant stress --tools, a haptic passivity check)
+  double work_total = 0;       // J, `work` summed over every step so far (sub-steps included)
   int contacts = 0;            // surface triangles touched (or swept through) in the last step
   int held_nodes = 0;          // nodes the tool moved in the last step
   double max_penetration = 0;  // m, deepest triangle inside the tool after the response

@@ -158,6 +158,7 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
     lc.held_vertices.clear();
     lc.hits.clear();
     lc.force = {0, 0, 0};
+    lc.work = 0;
     lc.contacts = 0;
     lc.max_penetration = 0;
     lc.from = to;
@@ -241,8 +242,13 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
   std::sort(lc.held_vertices.begin(), lc.held_vertices.end());
 
   // 5. Held vertices lose their velocity into the tool (relative to the tool's motion there),
-  // and their forces are the reaction on the tool.
+  // and their forces are the reaction on the tool. The work of the tool (a rigid body moved
+  // along its path whatever resists it): at each held node, its motion against the node's force,
+  // -f . v_tool dt, and against the impulse it gave the node, m (v_new - v_old) . v_tool (of which
+  // the node keeps (v_new - v_old) . (v_new + v_old) / 2; the rest is the inelastic contact's
+  // loss). A tool at rest does no work, however it holds the body.
   Vec3d force{0, 0, 0};
+  double work = 0;
   for (std::int32_t i : lc.held_vertices) {
     const auto n = std::size_t(lc.surface_nodes[std::size_t(i)]);
     const P3& push = lc.push[std::size_t(i)];
@@ -255,9 +261,14 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
       closest_segment_segment(a1, b1, x, x, s, unused);
       const P3 v_tool = mul(sub(add(a1, mul(sub(b1, a1), s)), add(a0, mul(sub(b0, a0), s))), 1 / dt);
       const P3 v{double(L.v[0][n]), double(L.v[1][n]), double(L.v[2][n])};
+      work -= (double(L.f[0][n]) * v_tool[0] + double(L.f[1][n]) * v_tool[1] + double(L.f[2][n]) * v_tool[2]) * dt;
       const double vn = dot(sub(v, v_tool), dir);
-      if (vn < 0)
+      if (vn < 0) {
         for (int c = 0; c < 3; ++c) L.v[c][n] = T(v[std::size_t(c)] - vn * dir[std::size_t(c)]);
+        double jv = 0;  // (v_new - v_old) . v_tool, m^2/s^2
+        for (int c = 0; c < 3; ++c) jv += (double(L.v[c][n]) - v[std::size_t(c)]) * v_tool[std::size_t(c)];
+        work += double(L.mass[n]) * jv;
+      }
     }
     for (int c = 0; c < 3; ++c) force[std::size_t(c)] += double(L.f[c][n]);
   }
@@ -272,6 +283,7 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
     worst = std::max(worst, r - std::sqrt(st.distance2));
   }
   lc.force = force;
+  lc.work = work;
   lc.contacts = int(lc.hits.size());
   lc.max_penetration = worst;
   lc.from = to;

@@ -35,6 +35,7 @@ struct LevelContact {
   std::int64_t refits = 0, queries = 0;
   // Results of the level's last window.
   Vec3d force{};          // N, world frame
+  double work = 0;        // J, the energy the tool gave up to the level (ToolReading::work)
   int contacts = 0;
   double max_penetration = 0;  // m
 };

@@ -506,6 +506,7 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   for (ToolState<T>& tool : tools) {
     const ToolPose to = tool.pose_at(t + h);
     bool any = false;
+    double work = 0;  // J, of the levels resolved in this step (the others' readings are older)
     for (LevelContact<T>& lc : tool.levels) {
       const std::size_t j = job_of_body_[std::size_t(lc.body)] + std::size_t(lc.level);
       if (!due_[j].window_end) continue;
@@ -517,11 +518,15 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         return false;
       }
       any = true;
+      work += lc.work;
     }
     if (!any) continue;
     ToolReading& r = tool.reading;
     r = ToolReading{};
     r.time = t + h;
+    r.work = work;
+    tool.work_total += work;
+    r.work_total = tool.work_total;
     for (const LevelContact<T>& lc : tool.levels) {
       for (int k = 0; k < 3; ++k) r.force[std::size_t(k)] += lc.force[std::size_t(k)];
       r.contacts += lc.contacts;

@@ -56,6 +56,7 @@ struct ToolState {
   ToolPose host_pose;
   std::vector<LevelContact<T>> levels;
   ToolReading reading;        // sums over its levels, from their last windows
+  double work_total = 0;      // J, ToolReading::work summed over every step so far
   ToolPose pose_at(double t) const { return host_driven ? host_pose : tool_pose_at(def.keyframes, t); }
 };
 
