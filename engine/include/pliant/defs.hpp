@@ -118,6 +118,8 @@ struct AdaptDef {
                                  //   prescribed motion's nodes, or of a probe with `refine`, are split
                                  //   and not merged while it is near; -1 (default, "auto"): one mean
                                  //   edge of the node's own level; 0: nothing refines by distance
+                                 //   (but nodes inside a touching tool, or within a quarter edge of
+                                 //   it, do not merge: docs/multiresolution.md)
 };
 struct ActiveDef {
   enum class Kind { finest, coarsest, level, regions, adaptive } kind = Kind::finest;

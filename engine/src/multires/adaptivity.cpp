@@ -347,14 +347,16 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
 
   // Near a tool, a prescribed motion or a refining probe (AdaptDef::refine_near; < 0: one mean edge
   // of the node's own level): a node within that distance of a shape's surface.
-  auto is_near = [&](int l, std::size_t i) {
-    if (near.empty() || st.def.refine_near == 0) return false;
-    const double reach = st.def.refine_near >= 0 ? st.def.refine_near : st.edge[std::size_t(l)];
+  // With refine_near 0 nothing refines by distance, but a node inside a tool or touching it (within
+  // a quarter of its level's mean edge: its surface nodes sit on the tool) does not merge
+  // (`kept_fine`).
+  auto near_within = [&](int l, std::size_t i, bool tools_only, double reach) {
     const Level<T>& L = body.levels[std::size_t(l)];
     const bool simulated = L.state[i] != kNodeInactive;  // else x holds nothing for it: its own place
     P3 p;
     for (std::size_t k = 0; k < 3; ++k) p[k] = simulated ? x[3 * std::size_t(l) + k][i] : double(L.x[k][i]);
     for (const NearShape& s : near) {
+      if (tools_only && !s.tool) continue;
       double d2 = 0;
       if (s.box) {
         for (std::size_t k = 0; k < 3; ++k) {
@@ -369,6 +371,14 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
       if (std::sqrt(d2) <= s.radius + reach) return true;
     }
     return false;
+  };
+  auto is_near = [&](int l, std::size_t i) {
+    if (near.empty() || st.def.refine_near == 0) return false;
+    return near_within(l, i, false, st.def.refine_near >= 0 ? st.def.refine_near : st.edge[std::size_t(l)]);
+  };
+  auto kept_fine = [&](int l, std::size_t i) {  // a merge would coarsen it: near (or inside a tool)
+    if (near.empty()) return false;
+    return st.def.refine_near == 0 ? near_within(l, i, true, 0.25 * st.edge[std::size_t(l)]) : is_near(l, i);
   };
 
   // 2. Decisions, coarse to fine, nodes in order (deterministic), each kept in st.decided.
@@ -427,8 +437,8 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
         for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
           quiet = as.target(l + 1, lk.children[std::size_t(c)]) <= l + 1;  // no child split further
         for (auto c = lk.child_offsets[std::size_t(i)]; c < lk.child_offsets[std::size_t(i) + 1] && quiet; ++c)
-          quiet = !is_near(l + 1, std::size_t(lk.children[std::size_t(c)]));  // a tool keeps its region fine
-        quiet = quiet && !is_near(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < merge_below;
+          quiet = !kept_fine(l + 1, std::size_t(lk.children[std::size_t(c)]));  // a tool keeps its region fine
+        quiet = quiet && !kept_fine(l, std::size_t(i)) && detail_of(l, i, restricted_now[std::size_t(l)]) < merge_below;
         if (!quiet) {
           calm[std::size_t(i)] = -1;
         } else if (calm[std::size_t(i)] < 0) {

@@ -120,6 +120,7 @@ struct NearShape {
   std::array<double, 3> a{}, b{};
   double radius = 0;
   bool box = false;
+  bool tool = false;  // a tool's swept sphere: also keeps the nodes inside it from merging when refine_near is 0
 };
 // `before_change`, if given, is called once, after the decisions and before the first change to
 // the body (when there is one): the caller's measurements of the state as it was (the energy give-back
