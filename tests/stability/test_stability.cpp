@@ -410,6 +410,11 @@ TEST(Stress, ToolScenesThatFailedPass) {
   // refine_near 0, merged the region under the tool back to its coarsest level with the tool 3 cm
   // inside that surface; the split back put fine nodes deep inside the tool: 7 J to 114 J, 2.8x
   // (now nodes inside or touching a tool do not merge, whatever refine_near).
+  // From `--seed 7` (900 s, 2026-11-26): a 3.7 cm sphere over a coarse triangle with a driven
+  // corner (refine_near 0; the triangle left alone, 6.8 mm deep); a split then made the finer
+  // surface active there and the response pushed it out in one step: 0.7 J, 1.04 J against a limit
+  // of 0.96 J (now a penetration the window's motion does not explain comes out at 5% of the P-wave
+  // speed).
   for (const StressScene& s : run_named_scenes({{0xd11bdab429871e87ull, "adaptive nested box 0.199x0.169x0.191"},
                                                 {0x7bef6633f8a2c52ull, "adaptive nested box 0.159x0.100x0.123"},
                                                 {0x4cc8b51c7c16b23dull, "adaptive non-nested box 0.182x0.033x0.029"},
@@ -417,7 +422,8 @@ TEST(Stress, ToolScenesThatFailedPass) {
                                                 {0xa1682368d4769fbbull, "adaptive nested box 0.202x0.063x0.108"},
                                                 {0xa1140cb71dc00c31ull, "adaptive nested box 0.224x0.083x0.090"},
                                                 {0x29d667d39001c802ull, "adaptive nested box 0.229x0.060x0.181"},
-                                                {0x1737c22123264ff8ull, "adaptive nested box 0.199x0.071x0.115"}},
+                                                {0x1737c22123264ff8ull, "adaptive nested box 0.199x0.071x0.115"},
+                                                {0x6966cda70374db28ull, "adaptive non-nested box 0.280x0.060x0.069"}},
                                                true)) {
     EXPECT_NE(s.description.find(", tool r "), std::string::npos) << s.description;
     EXPECT_GT(s.splits, 0);

@@ -232,14 +232,36 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
         for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) + s * d[std::size_t(c)]);
         const auto i = std::size_t(tri[std::size_t(k)]);
         for (int c = 0; c < 3; ++c) lc.push[i][std::size_t(c)] += s * d[std::size_t(c)];
-        if (!lc.held[i]) {
-          lc.held[i] = 1;
-          lc.held_vertices.push_back(std::int32_t(i));
-        }
+        if (!lc.held[i]) lc.held_vertices.push_back(std::int32_t(i));
+        lc.held[i] = std::max<std::uint8_t>(lc.held[i], crossed ? kHeldDeep : kHeldRadial);
       }
     }
   }
   std::sort(lc.held_vertices.begin(), lc.held_vertices.end());
+
+  // 4b. A vertex pushed radially only comes out by no more than the window's motion brought it in
+  // plus kRecoverySpeed c_p dt: a penetration already there goes out over several windows.
+  // c_p from the level's Courant estimate, omega_geometric = 2 c_p / h_min.
+  const double recovery = kRecoverySpeed * 0.5 * L.omega_geometric * L.min_altitude * dt;  // m
+  for (std::int32_t i : lc.held_vertices) {
+    if (lc.held[std::size_t(i)] != kHeldRadial) continue;
+    P3& push = lc.push[std::size_t(i)];
+    const double len = std::sqrt(norm2(push));
+    if (!(len > recovery)) continue;
+    const auto n = std::size_t(lc.surface_nodes[std::size_t(i)]);
+    // The vertex's approach to the tool in the window: the axis point's displacement against the
+    // vertex's own (v dt), along the push.
+    double s = 0, unused = 0;
+    const P3 x = vertex(L, std::int32_t(n));
+    closest_segment_segment(a1, b1, x, x, s, unused);
+    const P3 axis_motion = sub(add(a1, mul(sub(b1, a1), s)), add(a0, mul(sub(b0, a0), s)));
+    const P3 own_motion{double(L.v[0][n]) * dt, double(L.v[1][n]) * dt, double(L.v[2][n]) * dt};
+    const double allowed = recovery + std::max(0.0, dot(sub(axis_motion, own_motion), mul(push, 1 / len)));
+    if (len <= allowed) continue;
+    const double back = 1 - allowed / len;
+    for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) - back * push[std::size_t(c)]);
+    push = mul(push, allowed / len);
+  }
 
   // 5. Held vertices lose their velocity into the tool (relative to the tool's motion there),
   // and their forces are the reaction on the tool. The work of the tool (a rigid body moved

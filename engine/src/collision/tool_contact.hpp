@@ -25,6 +25,7 @@ struct LevelContact {
   std::vector<std::array<std::int32_t, 3>> triangles;    // surface vertex indices (L.boundary, renumbered)
   std::vector<std::uint32_t> candidates, hits;           // scratch: triangles near the tool, touched
   std::vector<std::uint8_t> held;                        // per surface vertex: moved in this window
+                                                         //   (kHeldRadial, kHeldDeep), else 0
   std::vector<std::array<double, 3>> push;               // per surface vertex: sum of its displacements
   std::vector<std::int32_t> held_vertices;               // surface vertices moved in the last window
   ToolPose from;                                         // the tool's pose at the start of the window
@@ -74,5 +75,19 @@ inline constexpr int kContactIterations = 4;
 // overshot the tool's surface at every step, and bodies driven into a resting tool gained energy
 // (three stress scenes, 1.7-1.9x their budget: docs/stress.md).
 inline constexpr double kMaxCornerPush = 1.37;
+
+// How fast a penetration the window's motion does not explain is pushed out. A vertex the
+// radial push moved comes out, over a window, by at most what the window's motion brought it in
+// (the tool's displacement against the vertex's own v dt, along the push) plus kRecoverySpeed
+// c_p dt, c_p the level's P-wave speed: a surface moved at speed v sends a strain of about v / c_p
+// into the body, so the push-out of a penetration found already there (the finer surface of a
+// level a split made active under the tool, where the coarser one could not follow it:
+// docs/tool.md) strains the body no more than a tool moving at 5% of c_p (the fastest path of
+// `pliant stress --tools`). At the level's stable step c_p dt is about h_min / 2, so that is about
+// h_min / 40 a window. Pushed out at once, a 6.8 mm penetration put 0.7 J into a 1.3 kg bar in one
+// step (a stress scene, 1.6x its energy budget: docs/stress.md). A vertex a deep push moved (the
+// tool went through its triangle in this window) is not limited.
+inline constexpr double kRecoverySpeed = 0.05;
+inline constexpr std::uint8_t kHeldRadial = 1, kHeldDeep = 2;  // LevelContact::held
 
 }  // namespace pliant::detail
