@@ -18,7 +18,7 @@ Command add_stress_command(CLI::App& app) {
     std::int64_t max_scenes = -1;
     std::vector<std::string> meshes;
     std::string report, scene;
-    bool tools = false;
+    bool tools = false, capsules = true;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand("stress", "Random scenes back to back: NaN, energy, memory and reproducibility checks");
@@ -31,8 +31,11 @@ Command add_stress_command(CLI::App& app) {
   sub->add_option("--meshes", o->meshes, "Folders of meshes to draw scenes from (default: the shipped data/meshes; env PLIANT_MESHES)");
   sub->add_option("--report", o->report, "Also write the final report to this file");
   sub->add_flag("--tools", o->tools,
-                "Also press a sphere tool into one adaptive scene in three (random size, depth, path and refine_near); "
-                "off by default: docs/stress.md says what it finds");
+                "Also press a tool into one adaptive scene in three (random size, depth, path and refine_near); off by "
+                "default: docs/stress.md says what it finds");
+  sub->add_flag("--capsules,!--no-capsules", o->capsules,
+                "With --tools: make half the tools capsules (random length, leaning 0-80 degrees); on by default: "
+                "--no-capsules keeps every tool a sphere, as they all were before 2026-11-26");
   sub->add_option("--scene", o->scene, "Run only the scene of this seed (as printed for a failure), e.g. 0x71c1...");
   return {sub, [o]() -> int {
             if (!(o->seconds >= 0)) throw InputError("--seconds must be >= 0");
@@ -44,6 +47,7 @@ Command add_stress_command(CLI::App& app) {
             so.max_scenes = o->max_scenes;
             so.repeat_every = o->repeat_every;
             so.tools = o->tools;
+            so.capsules = o->capsules;
             if (o->meshes.empty()) {
               if (const char* env = std::getenv("PLIANT_MESHES"))
                 so.mesh_dirs = {env};

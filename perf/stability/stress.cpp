@@ -248,16 +248,31 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
     const double x0 = tr.uniform(0.3, 0.9) * length;
     const double x1 = std::clamp(x0 + tr.uniform(-0.3, 0.3) * length, 0.2 * length, length);
     const double y = tr.uniform(0.2, 0.8) * size[1];
-    const double touch = size[2] + t.shape.radius;  // centre height at which the sphere touches the top
     const double t0 = tr.uniform(0, 0.3), t1 = t0 + tr.uniform(0.05, 0.15), t2 = t1 + tr.uniform(0, 0.2),
                  t3 = t2 + tr.uniform(0.05, 0.15);
-    const double above = touch + 0.1 * t.shape.radius;
-    t.keyframes = {{0, {x0, y, above}}, {t0, {x0, y, above}}, {t1, {x0, y, touch - depth}}, {t2, {x1, y, touch - depth}},
-                   {t3, {x1, y, above}}};
     const double near = tr.uniform();
     ad.refine_near = near < 0.4 ? -1.0 : near < 0.8 ? 0.0 : tr.uniform(0, 1) * a;
-    tool_text = fmt::format(", tool r {:.3f} m {:.0f}% deep, refine_near {}", t.shape.radius, 100 * depth / size[2],
-                            ad.refine_near < 0 ? std::string("auto") : fmt::format("{:.3g}", ad.refine_near));
+    // With StressOptions::capsules, half the tools are capsules (a surgical instrument's shaft),
+    // 1-3 radii between their caps' centres, leaning 0-80 degrees from vertical along the bar and
+    // pressing with their lower cap: from a third stream, so the spheres' draws stay as they were.
+    Rng cr{seed ^ 0xca95e1e5eedull};
+    double lean = 0;  // rad, about y
+    if (o.capsules && cr.chance(0.5)) {
+      t.shape.kind = ToolShapeDef::Kind::capsule;
+      t.shape.length = cr.uniform(1, 3) * t.shape.radius;
+      lean = cr.uniform(0, 80) * std::acos(-1.0) / 180;
+    }
+    // Centre height at which the lowest point (the sphere's, or the capsule's lower cap's) touches the top.
+    const double touch = size[2] + t.shape.radius + 0.5 * t.shape.length * std::cos(lean);
+    const Quatd q{std::cos(0.5 * lean), 0, std::sin(0.5 * lean), 0};
+    const double above = touch + 0.1 * t.shape.radius;
+    t.keyframes = {{0, {x0, y, above}, q}, {t0, {x0, y, above}, q}, {t1, {x0, y, touch - depth}, q},
+                   {t2, {x1, y, touch - depth}, q}, {t3, {x1, y, above}, q}};
+    tool_text = fmt::format(", tool r {:.3f} m{} {:.0f}% deep, refine_near {}", t.shape.radius,
+                            t.shape.kind == ToolShapeDef::Kind::capsule
+                                ? fmt::format(" capsule length {:.3f} m leaning {:.0f} deg", t.shape.length, lean * 180 / std::acos(-1.0))
+                                : std::string(),
+                            100 * depth / size[2], ad.refine_near < 0 ? std::string("auto") : fmt::format("{:.3g}", ad.refine_near));
     s.tool = t;
   }
   s.description = fmt::format(
@@ -446,6 +461,8 @@ bool adaptive_scene_seed(std::uint64_t seed) {
   return splitmix(s) % 5 == 0;
 }
 
+std::string stress_scene_description(std::uint64_t seed, const StressOptions& o) { return random_scene(seed, o).description; }
+
 std::size_t resident_bytes() {
   std::ifstream f("/proc/self/statm");
   std::size_t size = 0, resident = 0;
@@ -541,7 +558,11 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
       mon.after_step(w);
       // A kinematic tool drives the body: its work over the step and its sub-steps
       // (ToolReading::work_total), as the driven nodes' by its magnitude.
-      if (sc.tool) mon.add_work(w.tool_reading(ToolId(0)).work_total - tool_work);
+      if (sc.tool) {
+        const ToolReading& reading = w.tool_reading(ToolId(0));
+        mon.add_work(reading.work_total - tool_work);
+        if (reading.contacts > 0) ++out.tool_steps;
+      }
       if (i % 20 == 0 || i == sc.steps) {
         ok = mon.sample(w);
         if (ok) ok = mass_ok = check_mass();
@@ -580,7 +601,7 @@ StressReport run_stress(const StressOptions& o) {
   rep.implicit_shapes = mc.implicit.size();
   log(fmt::format("stress: seed {}, {} s, up to {} threads; {} shipped meshes, {} implicit shapes{}{}", o.seed,
                   o.seconds, o.threads, mc.files.size(), mc.implicit.size(),
-                  meshing_available() ? "" : " (no meshing in this build)", o.tools ? "; tools on (--tools)" : ""));
+                  meshing_available() ? "" : " (no meshing in this build)", o.tools ? (o.capsules ? "; tools on (--tools), half of them capsules" : "; tools on (--tools), spheres only") : ""));
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   std::vector<std::pair<double, double>> samples;  // (s, bytes)
@@ -688,7 +709,7 @@ StressReport run_stress(const StressOptions& o) {
 std::string stress_text(const StressReport& r, const StressOptions& o) {
   std::string s;
   s += fmt::format("seed {}, {:.0f} s wall, up to {} threads{}\n", o.seed, r.wall_s, o.threads,
-                   o.tools ? ", tools in one adaptive scene in three (--tools)" : "");
+                   o.tools ? (o.capsules ? ", tools in one adaptive scene in three, half of them capsules (--tools)" : ", sphere tools in one adaptive scene in three (--tools --no-capsules)") : "");
   s += fmt::format("scenes {}, steps {} ({:.0f} steps/s), failures {}, repeats {} (hash mismatches {})\n", r.scenes,
                    r.steps, r.wall_s > 0 ? double(r.steps) / r.wall_s : 0.0, r.failures, r.repeats,
                    r.repeat_mismatches);

@@ -370,6 +370,7 @@ std::vector<StressScene> run_named_scenes(const std::vector<std::pair<std::uint6
   o.threads = 2;
   o.mesh_dirs = {PLIANT_DATA_MESHES};
   o.tools = tools;
+  o.capsules = false;  // the named tool scenes were spheres
   std::vector<StressScene> out;
   for (const auto& [seed, what] : scenes) {
     StressScene s = run_stress_scene(seed, 0, o);
@@ -432,6 +433,33 @@ TEST(Stress, ToolScenesThatFailedPass) {
     EXPECT_NE(s.description.find(", tool r "), std::string::npos) << s.description;
     EXPECT_GT(s.splits, 0);
   }
+}
+
+TEST(Stress, CapsuleToolScenesPass) {
+  // The first six adaptive scenes (seeds 1, 2, 3, ...) whose tool is a capsule (StressOptions::
+  // capsules, on with tools: half the tools, 1-3 radii long, leaning 0-80 degrees, pressing with
+  // the lower cap) pass, on 1 and 2 threads with the same state hash.
+  StressOptions o;
+  o.threads = 2;
+  o.mesh_dirs = {PLIANT_DATA_MESHES};
+  o.tools = true;
+  int found = 0, touched = 0;
+  for (std::uint64_t seed = 1; found < 6 && seed < 2000; ++seed) {
+    if (!adaptive_scene_seed(seed) || stress_scene_description(seed, o).find(" capsule ") == std::string::npos) continue;
+    ++found;
+    const StressScene s = run_stress_scene(seed, 0, o);
+    fmt::print("seed {}: {} [{}], {} splits, {} merges, the tool touching for {} of {} steps\n", seed, s.status,
+               s.description, s.splits, s.merges, s.tool_steps, s.steps);
+    EXPECT_EQ(s.status, "ok") << s.description << ": " << s.message;
+    touched += s.tool_steps > 0 ? 1 : 0;
+    const StressScene again = run_stress_scene(seed, 0, o, s.threads == 1 ? 2 : 1);
+    EXPECT_EQ(again.hash, s.hash) << s.description;
+  }
+  EXPECT_EQ(found, 6);
+  // The capsules reach the bodies: 5 of the 6 (seed 32's does not: its path, slowed to 5% of the
+  // P-wave speed of a stiff light bar by shrinking it towards its start, comes down 1.4 mm of the
+  // 4.8 mm above the top it starts from, as a sphere's would).
+  EXPECT_GE(touched, 5);
 }
 
 TEST(Stress, ThreeLevelScenesThatGainedEnergyAtTheirChangesPass) {

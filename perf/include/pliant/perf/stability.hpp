@@ -187,6 +187,9 @@ struct StressOptions {
   // One adaptive scene in three also gets a sphere tool (random_adaptive_scene). Off by default:
   // the scenes, hashes and digests without it stay those of docs/stress.md.
   bool tools = false;
+  // With tools: half of them capsules (random length and lean), from a stream of their own. On by
+  // default; off, every tool is the sphere it was before (the scenes the ctests name).
+  bool capsules = true;
   std::function<void(const std::string&)> log;   // progress lines
 };
 
@@ -203,6 +206,7 @@ struct StressScene {
   bool adaptive = false;
   std::int64_t splits = 0, merges = 0, changes = 0, undone = 0;
   double mass_error = 0;
+  int tool_steps = 0;  // steps in which the scene's tool touched the body (ToolReading::contacts > 0)
   int threads = 1;
   std::uint64_t hash = 0;
   double wall_s = 0;
@@ -230,6 +234,8 @@ std::size_t resident_bytes();  // from /proc/self/statm
 // Whether the scene of this seed is an adaptive multiresolution body (about one in five; see
 // docs/stress.md): a function of the seed alone, drawn apart from the other scenes' choices.
 bool adaptive_scene_seed(std::uint64_t scene_seed);
+// The description of the scene of this seed (as a run prints it), without running it.
+std::string stress_scene_description(std::uint64_t scene_seed, const StressOptions& options);
 StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const StressOptions& options,
                              int threads_override = -1);
 StressReport run_stress(const StressOptions& options);
