@@ -232,8 +232,9 @@ Scene random_adaptive_scene(std::uint64_t seed, const StressOptions& o) {
     s.dt_mode = "substep";
   }
   s.steps = r.integer(1500, 3000);
-  // With StressOptions::tools, one adaptive scene in three also has a sphere tool, from a stream
-  // of its own (the draws above stay as they were): it comes down onto the top face at a random
+  // With StressOptions::tools, one adaptive scene in three also has a tool (a sphere, or with
+  // StressOptions::capsules half the time a capsule, below), from a stream of its own (the draws
+  // above stay as they were): it comes down onto the top face at a random
   // point, presses 10-40% of the thickness in, slides along the bar and leaves. Its refine_near is
   // auto (the finest level around the tool), 0 (only the strain refines: coarser surfaces get made
   // active under the tool, the case that flung a corner 80 m on the organ, docs/tool.md) or up to
