@@ -62,8 +62,8 @@ Command add_stress_command(CLI::App& app) {
             };
             if (!o->scene.empty()) {
               const auto s = stability::run_stress_scene(std::stoull(o->scene, nullptr, 0), 0, so);
-              fmt::print("{}\n{}: {} steps, hash {:016x}, {:.2f} s{}{}\n", s.description, s.status, s.steps, s.hash,
-                         s.wall_s,
+              fmt::print("{}\n{}: {} steps, hash {:016x}, {:.2f} s, energy peak {:.3f} of {} x{}{}\n", s.description, s.status,
+                         s.steps, s.hash, s.wall_s, s.energy_peak, stability::kBoundFactor,
                          s.adaptive ? fmt::format(", {} splits, {} merges, {} undone, mass to {:.2g}", s.splits, s.merges, s.undone, s.mass_error)
                                     : std::string(),
                          s.message.empty() ? "" : "\n" + s.message);

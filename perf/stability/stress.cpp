@@ -579,6 +579,7 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   }
   out.steps = w.steps() * w.substeps();
   out.hash = w.state_hash();
+  out.energy_peak = mon.peak_ratio();
   adapt_stats();
   if (!mass_ok) {
     out.status = "mass";
@@ -634,6 +635,15 @@ StressReport run_stress(const StressOptions& o) {
       rep.undone += s.undone;
       if (s.splits > 0 && s.merges > 0) ++rep.adaptive_split_and_merged;
       rep.max_mass_error = std::max(rep.max_mass_error, s.mass_error);
+    }
+    if (s.status == "ok") {  // how close the passing scenes came to failing
+      constexpr std::size_t kClosest = 3;
+      auto at = std::find_if(rep.closest.begin(), rep.closest.end(),
+                             [&](const StressScene& c) { return s.energy_peak > c.energy_peak; });
+      if (std::size_t(at - rep.closest.begin()) < kClosest) {
+        rep.closest.insert(at, s);
+        if (rep.closest.size() > kClosest) rep.closest.pop_back();
+      }
     }
     if (s.status != "ok") {
       ++rep.failures;
@@ -726,6 +736,9 @@ std::string stress_text(const StressReport& r, const StressOptions& o) {
   s += "mix:";
   for (const auto& [k, v] : r.counts) s += fmt::format(" {}={}", k, v);
   s += "\n";
+  for (const auto& c : r.closest)
+    s += fmt::format("closest to the energy bound ({} x): scene {} (seed {:#x}) at {:.3f} x{} [{}]\n", kBoundFactor, c.index,
+                     c.seed, c.energy_peak, c.tool_steps > 0 ? ", tool touching" : "", c.description);
   for (const auto& f : r.failed)
     s += fmt::format("failed scene {} (seed {:#x}): {}: {} [{}]\n", f.index, f.seed, f.status, f.message, f.description);
   s += r.ok() ? "result: OK\n" : "result: FAILED\n";

@@ -207,6 +207,7 @@ struct StressScene {
   std::int64_t splits = 0, merges = 0, changes = 0, undone = 0;
   double mass_error = 0;
   int tool_steps = 0;  // steps in which the scene's tool touched the body (ToolReading::contacts > 0)
+  double energy_peak = 0;  // the energy criterion's largest M/S over the run (fails above kBoundFactor)
   int threads = 1;
   std::uint64_t hash = 0;
   double wall_s = 0;
@@ -225,6 +226,7 @@ struct StressReport {
   std::int64_t digest_scenes = 0;
   std::vector<StressScene> failed;     // every failing scene
   std::vector<StressScene> first;      // the first few scenes, for the report
+  std::vector<StressScene> closest;    // the passing scenes nearest the energy bound, nearest first
   std::map<std::string, int> counts;   // scenes per model / precision / mesh kind / dt mode
   std::size_t mesh_files = 0, implicit_shapes = 0;  // what the scenes were drawn from
   bool ok() const { return failures == 0 && repeat_mismatches == 0 && memory_flat; }
