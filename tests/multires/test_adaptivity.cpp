@@ -142,16 +142,21 @@ TEST(Adaptivity, AMergeCarriesATurnedBodyOverWithoutStrainingIt) {
   EXPECT_LT(w.energies().elastic, 1e-25);  // measured 2.6e-30 J
 }
 
+// Fixes the nodes at x = 0 (a clamped end).
+void clamp_end(BodyDef& b) {
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-9, 1, 1};
+  b.fixed.push_back(clamp);
+}
+
 // A 20 x 2 x 2 cm bar of 2 nested levels, damped, clamped at x = 0, its tip pushed `amplitude` m
 // sideways over 0.1 s and held (and brought back by 0.3 s when `release`).
 BodyDef pushed_bar(double amplitude, bool release) {
   BodyDef b = block(20);
   b.mesh.max = {0.2, 0.02, 0.02};
   b.mesh.cells = {20, 2, 2};
-  RegionDef clamp;
-  clamp.min = {-1, -1, -1};
-  clamp.max = {1e-9, 1, 1};
-  b.fixed.push_back(clamp);
+  clamp_end(b);
   PrescribedMotionDef push;
   push.region.min = {0.2 - 1e-9, -1, -1};
   push.region.max = {1, 1, 1};
@@ -383,6 +388,51 @@ TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {
               all_fine, w.level_info(0, 1).stepped_tets, static_cast<long long>(w.adapt_stats(0).splits),
               static_cast<long long>(w.adapt_stats(0).merges));
   EXPECT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+}
+
+TEST(Adaptivity, AToolOnATriangleItCannotPushRefinesThereWhateverRefineNear) {
+  // A bar clamped at x = 0, on its coarsest level (cells 5 cm), refine_near 0 and strain
+  // thresholds out of reach: nothing refines by distance or strain. A sphere presses its top 3 cm
+  // from the clamped end, 8 mm deep, on a coarse triangle whose point lies near fixed corners:
+  // moving only the free corners would fling them (kMaxCornerPush), so the response leaves it
+  // alone. Before 2026-11-28 the tool then sank through it unfelt (a stress scene: 19 mm, then
+  // 3.3x its energy budget when a split put a finer surface inside the tool); now the contact
+  // refines there, and the finer surface, free under the tool, holds it. Measured: 2 splits, 72
+  // fine tets stepped, 0.125 mm deepest, 0.025 mm at the end, 14.7 N (before: no split, 8 mm
+  // deep, 0 N).
+  World w(no_gravity());
+  BodyDef b = block();
+  b.mesh.max = {0.2, 0.05, 0.05};
+  b.mesh.cells = {8, 2, 2};
+  clamp_end(b);
+  AdaptDef& a = b.multiresolution.active.adapt;
+  a.refine_above = 1e9;
+  a.coarsen_below = 1e8;
+  a.refine_near = 0;
+  w.add_body(b);
+  ToolDef t;
+  t.shape.radius = 0.01;
+  t.keyframes = {{0.0, {0.03, 0.02, 0.062}}, {0.1, {0.03, 0.02, 0.052}}, {0.2, {0.03, 0.02, 0.052}}};
+  w.add_tool(t);
+  double deepest = 0;
+  int touching = 0;
+  while (w.time() < 0.2) {
+    w.step();
+    const ToolReading r = w.tool_reading(0);
+    deepest = std::max(deepest, r.max_penetration);
+    touching += r.contacts > 0;
+  }
+  const ToolReading r = w.tool_reading(0);
+  std::printf("tool on a triangle by the clamp: %d steps touching, %lld splits, %zu fine tets stepped, deepest %.3g mm, "
+              "%.3g mm at the end, force %.3g N\n",
+              touching, static_cast<long long>(w.adapt_stats(0).splits), w.level_info(0, 1).stepped_tets, 1e3 * deepest,
+              1e3 * r.max_penetration, r.force[2]);
+  EXPECT_GT(touching, 100);
+  EXPECT_GT(w.adapt_stats(0).splits, 0);
+  EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
+  EXPECT_LT(deepest, 0.3e-3);           // m
+  EXPECT_LT(r.max_penetration, 0.1e-3);  // m
+  EXPECT_GT(r.force[2], 5);              // N
 }
 
 // The bar of SplitsWhereTheBodyStrainsAndMergesWhenItCalms (linear elasticity: its field scales with

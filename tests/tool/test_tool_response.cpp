@@ -242,7 +242,9 @@ TEST(ToolResponse, APenetrationAlreadyThereComesOutGradually) {
   EXPECT_LE(farthest, per_step * (1 + 1e-9));
   EXPECT_GE(first.max_penetration, depth - 2 * per_step);
   // It does come out, at the push-out's pace: depth / per_step is 291 steps (the slab's damping
-  // makes its step short: 25 us); measured 285 (the slab, pushed, springs back a little).
+  // makes its step short: 25 us); measured 300 (285 until 2026-11-28, when each vertex's push-out
+  // was bounded by the depth of the points that moved it: the last steps, points nearly out, go
+  // slower).
   const double pace = depth / per_step;
   EXPECT_LE(steps, 1.1 * pace);
   EXPECT_GE(steps, 0.8 * pace);
@@ -311,9 +313,11 @@ TEST(ToolResponse, ItsWorkIsTheEnergyTheBodyReceived) {
     EXPECT_EQ(held_still, 0.0);
     EXPECT_GT(r.work_total, 0);
     EXPECT_LT(e.kinetic + e.elastic, r.work_total);
-    // Undamped, measured 0.53 of the work: the rest went into the inelastic contact (the surface
-    // ringing against the tool as it presses).
-    if (!damped) EXPECT_GT(e.kinetic + e.elastic, 0.5 * r.work_total);
+    // Undamped, measured 0.44 of the work: the rest went into the inelastic contact (the surface
+    // ringing against the tool as it presses). 0.53 until 2026-11-28, when a vertex's push-out
+    // beyond its approach was bounded by its point's depth (docs/tool.md): less of a corner's
+    // least-squares push per window, more rings.
+    if (!damped) EXPECT_GT(e.kinetic + e.elastic, 0.4 * r.work_total);
   }
 }
 

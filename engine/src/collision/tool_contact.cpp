@@ -69,7 +69,9 @@ LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int 
   lc.hits.reserve(lc.triangles.size());
   lc.held.assign(lc.surface_nodes.size(), 0);
   lc.push.assign(lc.surface_nodes.size(), {0, 0, 0});
+  lc.depth.assign(lc.surface_nodes.size(), 0);
   lc.held_vertices.reserve(lc.surface_nodes.size());
+  lc.unresolved.reserve(lc.triangles.size());
   return lc;
 }
 
@@ -154,9 +156,11 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
     for (std::int32_t i : lc.held_vertices) {
       lc.held[std::size_t(i)] = 0;
       lc.push[std::size_t(i)] = {0, 0, 0};
+      lc.depth[std::size_t(i)] = 0;
     }
     lc.held_vertices.clear();
     lc.hits.clear();
+    lc.unresolved.clear();
     lc.force = {0, 0, 0};
     lc.work = 0;
     lc.contacts = 0;
@@ -175,8 +179,10 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
   for (std::int32_t i : lc.held_vertices) {
     lc.held[std::size_t(i)] = 0;
     lc.push[std::size_t(i)] = {0, 0, 0};
+    lc.depth[std::size_t(i)] = 0;
   }
   lc.held_vertices.clear();
+  lc.unresolved.clear();
   for (int iteration = 0; iteration < kContactIterations; ++iteration) {
     for (std::uint32_t t : lc.hits) {
       const auto& tri = lc.triangles[t];
@@ -221,10 +227,15 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
         sum_w2 += w[k] * w[k];
       }
       // The point is (almost) on corners that are not free: no move of the free ones that stays
-      // within kMaxCornerPush |d| carries it out, so the triangle is left to its neighbours.
+      // within kMaxCornerPush |d| carries it out, so the triangle is left to its neighbours; if
+      // they have not carried it out by the last pass, an adaptive body refines there
+      // (LevelContact::unresolved).
       double largest = 0;
       for (int k = 0; k < 3; ++k) largest = std::max(largest, w[k]);
-      if (sum_w2 < 1e-12 || !(largest <= kMaxCornerPush * sum_w2)) continue;
+      if (sum_w2 < 1e-12 || !(largest <= kMaxCornerPush * sum_w2)) {
+        if (iteration + 1 == kContactIterations) lc.unresolved.push_back(st.on_triangle.point);
+        continue;
+      }
       for (int k = 0; k < 3; ++k) {
         if (w[k] == 0) continue;
         const double s = w[k] / sum_w2;
@@ -232,6 +243,7 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
         for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) + s * d[std::size_t(c)]);
         const auto i = std::size_t(tri[std::size_t(k)]);
         for (int c = 0; c < 3; ++c) lc.push[i][std::size_t(c)] += s * d[std::size_t(c)];
+        lc.depth[i] = std::max(lc.depth[i], r - dist);
         if (!lc.held[i]) lc.held_vertices.push_back(std::int32_t(i));
         lc.held[i] = std::max<std::uint8_t>(lc.held[i], crossed ? kHeldDeep : kHeldRadial);
       }
@@ -239,8 +251,9 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
   }
   std::sort(lc.held_vertices.begin(), lc.held_vertices.end());
 
-  // 4b. A vertex pushed radially only comes out by no more than the window's motion brought it in
-  // plus kRecoverySpeed c_p dt: a penetration already there goes out over several windows.
+  // 4b. A vertex pushed radially only comes out by what the window's motion brought it in or, if
+  // more, kRecoverySpeed c_p dt (at most the depth of the points that moved it): a penetration
+  // already there goes out over several windows.
   // c_p from the level's Courant estimate, omega_geometric = 2 c_p / h_min.
   const double recovery = kRecoverySpeed * 0.5 * L.omega_geometric * L.min_altitude * dt;  // m
   for (std::int32_t i : lc.held_vertices) {
@@ -256,7 +269,13 @@ bool resolve_tool_contact(LevelContact<T>& lc, Level<T>& L, const ToolShapeDef& 
     closest_segment_segment(a1, b1, x, x, s, unused);
     const P3 axis_motion = sub(add(a1, mul(sub(b1, a1), s)), add(a0, mul(sub(b0, a0), s)));
     const P3 own_motion{double(L.v[0][n]) * dt, double(L.v[1][n]) * dt, double(L.v[2][n]) * dt};
-    const double allowed = recovery + std::max(0.0, dot(sub(axis_motion, own_motion), mul(push, 1 / len)));
+    // Beyond its approach, a vertex comes out by the recovery but no further than the deepest
+    // triangle point that moved it (the least-squares move carries a corner up to 1.37x its
+    // point's push). With the recovery added to the approach, bodies driven into a resting tool
+    // gained energy at every window: a corner went out by both, further than the point it carried
+    // had come in (stress scenes, 1.5-2.3x their criterion: docs/tool.md).
+    const double approach = std::max(0.0, dot(sub(axis_motion, own_motion), mul(push, 1 / len)));
+    const double allowed = std::max(approach, std::min(recovery, lc.depth[std::size_t(i)]));
     if (len <= allowed) continue;
     const double back = 1 - allowed / len;
     for (int c = 0; c < 3; ++c) L.x[c][n] = T(double(L.x[c][n]) - back * push[std::size_t(c)]);

@@ -569,8 +569,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // What refines by distance (AdaptDef::refine_near), where it is now (body frame): the tools
     // touching the body, the nodes of its prescribed motions (their bounding box), and the probes
     // that ask for it. The tools always: with refine_near 0 nothing refines by distance, but the
-    // nodes inside a tool do not merge (a merge there put a coarser surface centimetres inside it,
-    // and the split back put fine nodes there: a stress scene went from 7 J to 114 J).
+    // nodes next to a tool do not merge (a merge there put a coarser surface centimetres inside it,
+    // and the split back put fine nodes there: a stress scene went from 7 J to 114 J), and the
+    // points of the triangles the tool presses but its response cannot push (LevelContact::
+    // unresolved) refine whatever refine_near.
     std::vector<NearShape> near;
     {
       for (const ToolState<T>& tool : tools) {
@@ -587,6 +589,16 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
         s.radius = tool.def.shape.radius;
         s.tool = true;
         near.push_back(s);
+        for (const LevelContact<T>& lc : tool.levels) {
+          if (lc.body != int(b)) continue;
+          for (const auto& p : lc.unresolved) {
+            NearShape c;
+            c.a = c.b = p;
+            c.tool = true;
+            c.unresolved_contact = true;
+            near.push_back(c);
+          }
+        }
       }
     }
     if (body.adapt->def.refine_near != 0) {

@@ -347,16 +347,18 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
 
   // Near a tool, a prescribed motion or a refining probe (AdaptDef::refine_near; < 0: one mean edge
   // of the node's own level): a node within that distance of a shape's surface.
-  // With refine_near 0 nothing refines by distance, but a node inside a tool or touching it (within
-  // a quarter of its level's mean edge: its surface nodes sit on the tool) does not merge
-  // (`kept_fine`).
-  auto near_within = [&](int l, std::size_t i, bool tools_only, double reach) {
+  // With refine_near 0 nothing refines by distance, but a node within one mean edge of its level
+  // from a tool (its merge would change the tets the tool touches) does not merge (`kept_fine`).
+  // (Within a quarter edge until 2026-11-28: a merge next to the tool moved the finer level's
+  // border, with its ghost corners, under it.)
+  // `contacts`: only the unresolved contacts (at one edge of level l), else only the other shapes.
+  auto near_within = [&](int l, std::size_t i, bool tools_only, double reach, bool contacts = false) {
     const Level<T>& L = body.levels[std::size_t(l)];
     const bool simulated = L.state[i] != kNodeInactive;  // else x holds nothing for it: its own place
     P3 p;
     for (std::size_t k = 0; k < 3; ++k) p[k] = simulated ? x[3 * std::size_t(l) + k][i] : double(L.x[k][i]);
     for (const NearShape& s : near) {
-      if (tools_only && !s.tool) continue;
+      if (s.unresolved_contact != contacts || (tools_only && !s.tool)) continue;
       double d2 = 0;
       if (s.box) {
         for (std::size_t k = 0; k < 3; ++k) {
@@ -372,13 +374,22 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
     }
     return false;
   };
+  // A tool pressing a triangle it cannot push (a point on a fixed or ghost corner: a coarse
+  // triangle at a clamped end) sank through it 19 mm unseen with refine_near 0 (a stress scene, then
+  // 2.2x its energy budget when a split put a finer surface there): such a contact refines.
+  auto at_unresolved_contact = [&](int l, std::size_t i) {
+    return !near.empty() && near_within(l, i, true, st.edge[std::size_t(l)], true);
+  };
   auto is_near = [&](int l, std::size_t i) {
-    if (near.empty() || st.def.refine_near == 0) return false;
+    if (near.empty()) return false;
+    if (at_unresolved_contact(l, i)) return true;
+    if (st.def.refine_near == 0) return false;
     return near_within(l, i, false, st.def.refine_near >= 0 ? st.def.refine_near : st.edge[std::size_t(l)]);
   };
   auto kept_fine = [&](int l, std::size_t i) {  // a merge would coarsen it: near (or inside a tool)
     if (near.empty()) return false;
-    return st.def.refine_near == 0 ? near_within(l, i, true, 0.25 * st.edge[std::size_t(l)]) : is_near(l, i);
+    return st.def.refine_near == 0 ? near_within(l, i, true, st.edge[std::size_t(l)]) || at_unresolved_contact(l, i)
+                                   : is_near(l, i);
   };
 
   // 2. Decisions, coarse to fine, nodes in order (deterministic), each kept in st.decided.

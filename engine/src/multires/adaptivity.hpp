@@ -121,6 +121,9 @@ struct NearShape {
   double radius = 0;
   bool box = false;
   bool tool = false;  // a tool's swept sphere: also keeps the nodes inside it from merging when refine_near is 0
+  // A point where a tool presses a triangle it cannot push (LevelContact::unresolved): nodes within
+  // one mean edge of their level split and stay split whatever refine_near, 0 included.
+  bool unresolved_contact = false;
 };
 // `before_change`, if given, is called once, after the decisions and before the first change to
 // the body (when there is one): the caller's measurements of the state as it was (the energy give-back
