@@ -198,7 +198,10 @@ template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change,
                 Executor* exec) {
   AdaptiveState& st = *body.adapt;
-  if (st.forced_target < 0 && t + 1e-12 < st.next_check) return false;  // World::force_level acts at once
+  // World::force_level acts at once, and so does a tool pressing a triangle it cannot push.
+  bool unresolved = false;
+  for (const NearShape& s : near) unresolved |= s.unresolved_contact;
+  if (st.forced_target < 0 && !unresolved && t + 1e-12 < st.next_check) return false;
   st.next_check = t + st.def.check_every;
   ++st.checks;
   const Hierarchy& h = *st.hierarchy;
