@@ -42,7 +42,9 @@ void forces(const ElementContext<T>& c, Range r, bool damped) {
 
 template <class T>
 bool packed_corners_pay() {
-  return std::is_same_v<T, float> && simd::kNativeBytes == 64;
+  // AVX-512 (Xeon) and AVX2 (AMD EPYC Zen 3): float 0.87-0.96x the time, double 0.98-1.10x
+  // (perf/layout_ab packed; docs/performance.md "Data layout"). SSE builds keep the gathers.
+  return std::is_same_v<T, float> && simd::kNativeBytes >= 32;
 }
 
 template <class T>

@@ -163,7 +163,7 @@ inline void gather_i32(const std::int32_t* base, const std::int32_t* idx, std::i
 
 // Corner positions from an interleaved node array xp (4 values per node: x y z pad): out[k][l]
 // = xp[4 * idx[l] + k] for k = 0, 1, 2, the lanes of one register. The same values as three
-// gathers from x[3][n]; with AVX-512 one 16 (float) or 32 (double) byte load per node and a
+// gathers from x[3][n]; with AVX-512 and AVX2 one 16 (float) or 32 (double) byte load per node and a
 // transpose, instead of 3 gathers of one element per lane.
 inline void gather_xyz(const float* xp, const std::int32_t* idx, Pack<float>::N out[3]) {
 #if PLIANT_SIMD_BYTES == 64
@@ -184,6 +184,19 @@ inline void gather_xyz(const float* xp, const std::int32_t* idx, Pack<float>::N 
   out[0] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpacklo_pd(__mmask8(0xFF), t0, t2));
   out[1] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpackhi_pd(__mmask8(0xFF), t0, t2));
   out[2] = (Pack<float>::N)_mm512_castpd_ps(_mm512_maskz_unpacklo_pd(__mmask8(0xFF), t1, t3));
+#elif PLIANT_SIMD_BYTES == 32
+  // AVX2: the same transpose on two 128-bit blocks. r[j] holds nodes j and j + 4.
+  __m256 r[4];
+  for (int j = 0; j < 4; ++j)
+    r[j] = _mm256_insertf128_ps(_mm256_castps128_ps256(_mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j]))),
+                                _mm_loadu_ps(xp + 4 * std::ptrdiff_t(idx[j + 4])), 1);
+  const __m256d t0 = _mm256_castps_pd(_mm256_unpacklo_ps(r[0], r[1]));  // x0 x1 y0 y1 | x4 x5 y4 y5
+  const __m256d t1 = _mm256_castps_pd(_mm256_unpackhi_ps(r[0], r[1]));  // z0 z1 w0 w1 | z4 z5 w4 w5
+  const __m256d t2 = _mm256_castps_pd(_mm256_unpacklo_ps(r[2], r[3]));  // x2 x3 y2 y3 | x6 x7 y6 y7
+  const __m256d t3 = _mm256_castps_pd(_mm256_unpackhi_ps(r[2], r[3]));  // z2 z3 w2 w3 | z6 z7 w6 w7
+  out[0] = (Pack<float>::N)_mm256_castpd_ps(_mm256_unpacklo_pd(t0, t2));
+  out[1] = (Pack<float>::N)_mm256_castpd_ps(_mm256_unpackhi_pd(t0, t2));
+  out[2] = (Pack<float>::N)_mm256_castpd_ps(_mm256_unpacklo_pd(t1, t3));
 #else
   for (int l = 0; l < Pack<float>::NW; ++l)
     for (int k = 0; k < 3; ++k) out[k][l] = xp[4 * std::ptrdiff_t(idx[l]) + k];
@@ -206,6 +219,17 @@ inline void gather_xyz(const double* xp, const std::int32_t* idx, Pack<double>::
   out[0] = (Pack<double>::N)_mm512_permutex2var_pd(t0, lo, t2);
   out[1] = (Pack<double>::N)_mm512_permutex2var_pd(t1, lo, t3);
   out[2] = (Pack<double>::N)_mm512_permutex2var_pd(t0, hi, t2);
+#elif PLIANT_SIMD_BYTES == 32
+  // AVX2: one 32-byte load per node, a 4 x 4 transpose.
+  __m256d a[4];
+  for (int j = 0; j < 4; ++j) a[j] = _mm256_loadu_pd(xp + 4 * std::ptrdiff_t(idx[j]));
+  const __m256d t0 = _mm256_unpacklo_pd(a[0], a[1]);  // x0 x1 | z0 z1
+  const __m256d t1 = _mm256_unpackhi_pd(a[0], a[1]);  // y0 y1 | w0 w1
+  const __m256d t2 = _mm256_unpacklo_pd(a[2], a[3]);  // x2 x3 | z2 z3
+  const __m256d t3 = _mm256_unpackhi_pd(a[2], a[3]);  // y2 y3 | w2 w3
+  out[0] = (Pack<double>::N)_mm256_permute2f128_pd(t0, t2, 0x20);
+  out[1] = (Pack<double>::N)_mm256_permute2f128_pd(t1, t3, 0x20);
+  out[2] = (Pack<double>::N)_mm256_permute2f128_pd(t0, t2, 0x31);
 #else
   for (int l = 0; l < Pack<double>::NW; ++l)
     for (int k = 0; k < 3; ++k) out[k][l] = xp[4 * std::ptrdiff_t(idx[l]) + k];

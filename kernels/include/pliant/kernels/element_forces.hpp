@@ -19,9 +19,10 @@ namespace pliant {
 
 // Whether the force passes are faster reading corners from packed positions (ElementContext::xp)
 // than gathering them, with the pack counted: true for float with AVX-512 (4 loads and a
-// transpose per corner; 0.87-0.96x the time); false for double there (1.07-1.16x: the transpose
-// of 32-byte nodes costs more shuffles than the gathers it replaces) and for the other ISAs
-// (not measured). docs/performance.md.
+// transpose per corner; 0.87-0.96x the time on a Xeon) and AVX2 (8 loads and a transpose per
+// corner; 0.87-0.92x on an AMD EPYC Zen 3, whose gathers are slow); false for double (1.07-1.16x
+// with AVX-512, 0.98-1.09x with AVX2: the transpose of 32-byte nodes costs about what the
+// gathers it replaces do) and for SSE builds (not measured). docs/performance.md.
 template <class T> bool packed_corners_pay();
 
 template <class T> void element_forces_linear(const ElementContext<T>& c, Range tets);
