@@ -4,7 +4,8 @@
 //  1. "packed": the corotational element pass reading corners from the interleaved copy
 //     (ElementContext::xp; the pack timed with it, as the step runs it) against the same pass
 //     gathering from x[3][n] (xp = null: the code before the change), on box worlds, float and
-//     double (whatever packed_corners_pay says), undamped and damped (velocities gathered),
+//     double (whatever packed_corners_pay says), undamped and damped (velocities gathered;
+//     damped also a third variant, the velocities packed too: ElementContext::vp),
 //     1 and 2 threads.
 //  2. "incidence": a prototype, not the engine: the element pass (float, undamped, packed
 //     positions) writes each corner's force as (x y z 0) to the slot of its (tet, corner) in the
@@ -164,7 +165,15 @@ void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damp
   AlignedVector<T> xp(4 * L.node_count);  // its own copy: the engine packs only where it pays
   PackContext<T> pk = pack_context(L);
   pk.xp = xp.data();
+  pk.vp = nullptr;  // positions only (the engine's context packs the velocities where that pays)
   use_packed(packed, pk, true);
+  // Damped: the velocities packed too (ElementContext::vp), a third variant.
+  AlignedVector<T> vp(4 * L.node_count);
+  PackContext<T> pkv = pk;
+  for (int k = 0; k < 3; ++k) pkv.v[k] = L.v[k].data();
+  pkv.vp = vp.data();
+  ElementContext<T> packed_v = packed;
+  packed_v.vp = vp.data();
   const GatherContext<T> gc = gather_context(L);
   const IntegrateContext<T> ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());
   const ElementPass<T> pass = force_kernel<T>(L.model);
@@ -172,11 +181,19 @@ void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damp
     ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); });
   };
   auto pack = [&] { ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { pack_positions(pk, r); }); };
+  auto pack_v = [&] { ex.parallel_for(nn, pass_grain(nn, kNodeGrain), [&](Range r) { pack_positions(pkv, r); }); };
   auto nodes = [&] {
     ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
   };
-  std::vector<double> eg, ng, pp, ep, np;
+  std::vector<double> eg, ng, pp, ep, np, evp;
   for (int i = 0; i < samples + 3; ++i) {
+    if (damped) {  // before the others, so that its pair (packed x) is timed right after it
+      auto tv = Clock::now();
+      pack_v();
+      element(packed_v);
+      if (i >= 3) evp.push_back(since(tv));
+      nodes();
+    }
     auto t = Clock::now();
     element(gathered);
     const double a = since(t);
@@ -208,6 +225,12 @@ void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damp
   print("pack", stat(pp, k));
   print("element, packed (pack included)", stat(ep, k));
   print("  ratio packed / gathered (per pair)", stat(ratio, 1.0));
+  if (damped) {
+    std::vector<double> rv(evp.size());
+    for (std::size_t i = 0; i < evp.size(); ++i) rv[i] = evp[i] / ep[i];
+    print("element, packed x and v (pack included)", stat(evp, k));
+    print("  ratio packed x and v / packed x (per pair)", stat(rv, 1.0));
+  }
   print("node pass after gathered", stat(ng, k));
   print("node pass after packed", stat(np, k));
   print("element + node pass, gathered", stat(sg, k));

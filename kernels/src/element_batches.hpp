@@ -35,7 +35,7 @@ __attribute__((always_inline)) inline void linear_batch(const ElementContext<T>&
   Mat3<V> P = hooke(eps, c.lambda, c.mu);
   if constexpr (Damped) {
     V v[4][3];
-    gather_corners(c.v, e, v);
+    load_velocities(c, e, v);
     add_to(P, hooke(sym(corner_gradient(v, e.g)), c.bulk_viscosity, c.shear_viscosity));
   }
   store_corner_forces_batch(c, at, P, e.g, e.volume);
@@ -52,7 +52,7 @@ __attribute__((always_inline)) inline void store_stress_batch(const ElementConte
   using V = typename simd::Pack<T>::V;
   if constexpr (Damped) {
     V v[4][3];
-    gather_corners(c.v, e, v);
+    load_velocities(c, e, v);
     const Mat3<V> Fdot = corner_gradient(v, e.g);
     add_to(S, hooke(sym(mul_tn(Q, Fdot)), c.bulk_viscosity, c.shear_viscosity));
   }
@@ -116,7 +116,7 @@ __attribute__((always_inline)) inline void springs_batch(const ElementContext<T>
   load_positions(c, e);
   auto& x = e.x;
   gather_corners(c.X, e, X);
-  if constexpr (Damped) gather_corners(c.v, e, v);
+  if constexpr (Damped) load_velocities(c, e, v);
   const V volume = at.volume(c);
   V f[4][3] = {};
   for (const auto& edge : kEdges) {

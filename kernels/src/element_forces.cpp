@@ -48,6 +48,11 @@ bool packed_corners_pay() {
 }
 
 template <class T>
+bool packed_velocities_pay() {
+  return std::is_same_v<T, float> && simd::kNativeBytes == 32;
+}
+
+template <class T>
 void element_forces_linear(const ElementContext<T>& c, Range r) {
   forces<detail::Linear>(c, r, detail::has_viscosity(c));
 }
@@ -219,6 +224,7 @@ double tet_min_altitude(const double a[3], const double b[3], const double c[3],
 
 #define PLIANT_INSTANTIATE(T)                                                               \
   template bool packed_corners_pay<T>();                                                    \
+  template bool packed_velocities_pay<T>();                                                 \
   template void element_forces_linear<T>(const ElementContext<T>&, Range);                  \
   template void element_forces_stvk<T>(const ElementContext<T>&, Range);                    \
   template void element_forces_corotational<T>(const ElementContext<T>&, Range);            \

@@ -155,6 +155,17 @@ void pack_positions(const PackContext<T>& c, Range r) {
     xp[4 * n + 2] = x2[n];
     xp[4 * n + 3] = T(0);
   }
+  if (!c.vp) return;
+  const T* __restrict v0 = c.v[0];
+  const T* __restrict v1 = c.v[1];
+  const T* __restrict v2 = c.v[2];
+  T* __restrict vp = c.vp;
+  for (std::size_t n = r.begin; n < r.end; ++n) {
+    vp[4 * n] = v0[n];
+    vp[4 * n + 1] = v1[n];
+    vp[4 * n + 2] = v2[n];
+    vp[4 * n + 3] = T(0);
+  }
 }
 
 template void pack_positions<float>(const PackContext<float>&, Range);

@@ -90,16 +90,23 @@ struct Strip : test::ElementArrays<T> {
     this->wire();
   }
 
-  // The interleaved copy of x (ElementContext::xp) the step's pack writes; the passes read it.
-  std::vector<T> xp;
-  void pack() {
+  // The interleaved copies of x and (with velocities) v (ElementContext::xp, vp) the step's pack
+  // writes; the passes read them.
+  std::vector<T> xp, vp;
+  void pack(bool velocities = false) {
     xp.assign(4 * nn, T(-7));
     PackContext<T> pc;
     for (int k = 0; k < 3; ++k) pc.x[k] = x[k].data();
     pc.xp = xp.data();
+    if (velocities) {
+      vp.assign(4 * nn, T(-7));
+      for (int k = 0; k < 3; ++k) pc.v[k] = v[k].data();
+      pc.vp = vp.data();
+    }
     pack_positions(pc, Range{0, nn / 2});
     pack_positions(pc, Range{nn / 2, nn});
     c.xp = xp.data();
+    c.vp = velocities ? vp.data() : nullptr;
   }
 
   void damp() {
@@ -271,17 +278,18 @@ TEST(KernelBatches, ListedPassesStoringForcesByListPositionGiveTheSameBits) {
     }
 }
 
-// Corner positions read from the interleaved copy (4 loads and a transpose per corner with
-// AVX-512) must be the values the gathers from x[3][n] read: the same bits out, any split.
+// Corner positions (and, with velocities, corner velocities) read from the interleaved copies
+// (one load per node and a transpose with AVX-512 and AVX2) must be the values the gathers from
+// x[3][n] and v[3][n] read: the same bits out, any split.
 template <class T>
-void check_packed_positions(bool damped) {
+void check_packed_positions(bool damped, bool velocities = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> soa(203, 5), packed(203, 5);
     if (damped) {
       soa.damp();
       packed.damp();
     }
-    packed.pack();
+    packed.pack(velocities);
     soa.forces(m, Range{0, soa.nt});
     packed.forces_in_pieces(m, {7, 13, 1, 32, 5, 64, 3});
     for (int q = 0; q < 12; ++q)
@@ -299,17 +307,42 @@ TEST(KernelBatches, PackedPositionsGiveTheBitsOfTheGathersDouble) {
   check_packed_positions<double>(true);
 }
 
+TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersFloat) { check_packed_positions<float>(true, true); }
+TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersDouble) { check_packed_positions<double>(true, true); }
+
+// The damped passes do read the velocities' copy when they are given one (else the test above
+// would pass with it ignored): a copy whose velocities differ from v changes the forces.
+TEST(KernelBatches, DampedPassesReadThePackedVelocities) {
+  for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
+    Strip<float> soa(40, 5), packed(40, 5);
+    soa.damp();
+    packed.damp();
+    packed.pack(true);
+    // x velocity + n x 0.1 m/s in the copy only (not uniform: a uniform velocity is a rigid
+    // translation, which the viscous stress rightly ignores)
+    for (std::size_t n = 0; n < packed.nn; ++n) packed.vp[4 * n] += 0.1f * float(n);
+    soa.forces(m, Range{0, soa.nt});
+    packed.forces(m, Range{0, packed.nt});
+    EXPECT_FALSE(same_bits(soa.cf[0], packed.cf[0])) << "model " << int(m);
+  }
+}
+
 TEST(KernelBatches, PackWritesXyzAndZeroOnItsRangeOnly) {
   Strip<float> s(40, 3);
   s.xp.assign(4 * s.nn, -7.0f);
   PackContext<float> pc;
   for (int k = 0; k < 3; ++k) pc.x[k] = s.x[k].data();
   pc.xp = s.xp.data();
+  s.vp.assign(4 * s.nn, -7.0f);
+  for (int k = 0; k < 3; ++k) pc.v[k] = s.v[k].data();
+  pc.vp = s.vp.data();
   pack_positions(pc, Range{5, 20});
   for (std::size_t n = 0; n < s.nn; ++n) {
     const bool in = n >= 5 && n < 20;
     for (int k = 0; k < 3; ++k) EXPECT_EQ(s.xp[4 * n + std::size_t(k)], in ? s.x[k][n] : -7.0f) << "node " << n;
     EXPECT_EQ(s.xp[4 * n + 3], in ? 0.0f : -7.0f) << "node " << n;
+    for (int k = 0; k < 3; ++k) EXPECT_EQ(s.vp[4 * n + std::size_t(k)], in ? s.v[k][n] : -7.0f) << "node " << n;
+    EXPECT_EQ(s.vp[4 * n + 3], in ? 0.0f : -7.0f) << "node " << n;
   }
 }
 

@@ -30,6 +30,9 @@ struct Level {
   // corner loads, rewritten from x right before them (pack_positions, level_passes.hpp); not
   // part of the state. Empty where packed corners do not pay (packed_corners_pay).
   AlignedVector<T> x_packed;
+  // The same for the velocities, read by the damped passes (ElementContext::vp), packed with the
+  // positions; empty where it does not pay (packed_velocities_pay) or the level is undamped.
+  AlignedVector<T> v_packed;
 
   // ---- tetrahedra ----
   std::size_t tet_count = 0;

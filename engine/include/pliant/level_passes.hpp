@@ -72,16 +72,25 @@ ElementContext<T> element_context(const Level<T>& L) {
 // tets), so it takes at least 2 tets per node of the level (a whole mesh has 4.5-6; a
 // multiresolution level stepping a small region of its mesh may have far fewer). Results are the
 // same bits either way.
+// The velocities are packed too where that pays (packed_velocities_pay<T>()) and the level's
+// passes read them (it is damped: the kernels' has_viscosity).
 template <class T>
 void size_packed(Level<T>& L) {
   const std::size_t n = packed_corners_pay<T>() ? 4 * L.node_count : 0;
   if (L.x_packed.size() != n) L.x_packed.assign(n, T(0));
+  const bool damped = L.bulk_viscosity != T(0) || L.shear_viscosity != T(0);
+  const std::size_t nv = n > 0 && damped && packed_velocities_pay<T>() ? n : 0;
+  if (L.v_packed.size() != nv) L.v_packed.assign(nv, T(0));
 }
 template <class T>
 PackContext<T> pack_context(Level<T>& L) {
   PackContext<T> c;
   for (int k = 0; k < 3; ++k) c.x[k] = L.x[k].data();
   c.xp = L.x_packed.data();
+  if (!L.v_packed.empty()) {
+    for (int k = 0; k < 3; ++k) c.v[k] = L.v[k].data();
+    c.vp = L.v_packed.data();
+  }
   return c;
 }
 template <class T>
@@ -89,10 +98,11 @@ bool pack_pays(const Level<T>& L, std::size_t tets) {
   return packed_corners_pay<T>() && L.node_count > 0 && L.x_packed.size() == 4 * L.node_count &&
          tets >= 2 * L.node_count;
 }
-// Points ec at the packed copy (on) or back at x only (off).
+// Points ec at the packed copies (on) or back at x and v only (off).
 template <class T>
 void use_packed(ElementContext<T>& ec, const PackContext<T>& pc, bool on) {
   ec.xp = on ? pc.xp : nullptr;
+  ec.vp = on ? pc.vp : nullptr;
 }
 
 template <class T>

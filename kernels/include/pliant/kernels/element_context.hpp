@@ -16,6 +16,9 @@ struct ElementContext {
   // caller keeps it equal to x (pack_positions, node_passes.hpp). Null: read x.
   const T* xp = nullptr;
   const T* v[3] = {};  // velocities (m/s)
+  // Optional: the velocities interleaved per node as xp (vp[4 n + k] = v[k][n]), read instead of
+  // v by the damped passes when set; the caller keeps it equal to v (pack_positions). Null: read v.
+  const T* vp = nullptr;
   // Tetrahedra.
   const std::int32_t* tet[4] = {};  // corner node indices, positively oriented at rest
   const T* volume = nullptr;        // rest volume V (m^3)

@@ -24,6 +24,11 @@ namespace pliant {
 // with AVX-512, 0.98-1.09x with AVX2: the transpose of 32-byte nodes costs about what the
 // gathers it replaces do) and for SSE builds (not measured). docs/performance.md.
 template <class T> bool packed_corners_pay();
+// Whether the damped passes are faster reading corner velocities from a packed copy
+// (ElementContext::vp) too, its pack counted: true for float with AVX2 (0.87-0.98x the damped
+// pass with packed positions, AMD EPYC Zen 3); false with AVX-512 (1.01-1.02x at 10k tets on a
+// Xeon, 2026-11-25), for double (0.99-1.03x) and SSE builds. docs/performance.md.
+template <class T> bool packed_velocities_pay();
 
 template <class T> void element_forces_linear(const ElementContext<T>& c, Range tets);
 template <class T> void element_forces_stvk(const ElementContext<T>& c, Range tets);

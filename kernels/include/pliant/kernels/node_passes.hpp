@@ -72,10 +72,14 @@ bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const Integrat
 // (integrator, ghosts, prescribed motion, obstacles, tools, adaptivity) needs not know of it: the
 // step packs right before its element passes. (Packing the velocities too, for the damped
 // passes, did not pay: docs/performance.md.)
+// With vp set, the velocities too (vp[4 n + k] = v[k][n]: ElementContext::vp, for the damped
+// passes), in the same sweep.
 template <class T>
 struct PackContext {
   const T* x[3] = {};
   T* xp = nullptr;  // 4 per node
+  const T* v[3] = {};
+  T* vp = nullptr;  // 4 per node, or null: velocities not packed
 };
 
 template <class T>
