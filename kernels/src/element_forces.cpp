@@ -42,14 +42,18 @@ void forces(const ElementContext<T>& c, Range r, bool damped) {
 
 template <class T>
 bool packed_corners_pay() {
-  // AVX-512 (Xeon) and AVX2 (AMD EPYC Zen 3): float 0.87-0.96x the time, double 0.98-1.10x
-  // (perf/layout_ab packed; docs/performance.md "Data layout"). SSE builds keep the gathers.
-  return std::is_same_v<T, float> && simd::kNativeBytes >= 32;
+  // perf/layout_ab packed, docs/performance.md "Data layout": AVX2 (AMD EPYC Zen 3) float
+  // 0.75-0.85x the time, double 0.87-0.94x; AVX-512 (Xeon) float 0.87-0.96x, double 1.07-1.16x
+  // (measured before gather_xyz lost its copy through the stack: to measure again there). SSE
+  // builds keep the gathers.
+  return simd::kNativeBytes == 32 || (std::is_same_v<T, float> && simd::kNativeBytes == 64);
 }
 
 template <class T>
 bool packed_velocities_pay() {
-  return std::is_same_v<T, float> && simd::kNativeBytes == 32;
+  // AVX2 (Zen 3): the damped pass 0.85-0.89x (float) and 0.89-0.94x (double) of the pass with
+  // positions packed only; AVX-512 (Xeon, before the copy fix): float 0.93-1.02x, dropped.
+  return simd::kNativeBytes == 32;
 }
 
 template <class T>

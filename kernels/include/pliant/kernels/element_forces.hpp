@@ -18,16 +18,16 @@
 namespace pliant {
 
 // Whether the force passes are faster reading corners from packed positions (ElementContext::xp)
-// than gathering them, with the pack counted: true for float with AVX-512 (4 loads and a
-// transpose per corner; 0.87-0.96x the time on a Xeon) and AVX2 (8 loads and a transpose per
-// corner; 0.87-0.92x on an AMD EPYC Zen 3, whose gathers are slow); false for double (1.07-1.16x
-// with AVX-512, 0.98-1.09x with AVX2: the transpose of 32-byte nodes costs about what the
-// gathers it replaces do) and for SSE builds (not measured). docs/performance.md.
+// than gathering them, with the pack counted: true with AVX2 (8 float or 4 double loads and a
+// transpose per corner: 0.75-0.85x the time in float, 0.87-0.94x in double on an AMD EPYC Zen 3,
+// whose gathers are slow) and for float with AVX-512 (0.87-0.96x on a Xeon); false for double
+// with AVX-512 (1.07-1.16x there, measured before gather_xyz stopped copying its result through
+// the stack) and for SSE builds (not measured). docs/performance.md.
 template <class T> bool packed_corners_pay();
 // Whether the damped passes are faster reading corner velocities from a packed copy
-// (ElementContext::vp) too, its pack counted: true for float with AVX2 (0.87-0.98x the damped
-// pass with packed positions, AMD EPYC Zen 3); false with AVX-512 (1.01-1.02x at 10k tets on a
-// Xeon, 2026-11-25), for double (0.99-1.03x) and SSE builds. docs/performance.md.
+// (ElementContext::vp) too, its pack counted: true with AVX2 (0.85-0.94x the damped pass with
+// positions packed only, Zen 3); false with AVX-512 (float 0.93-1.02x on a Xeon, 2026-11-25,
+// before the copy fix) and SSE builds. docs/performance.md.
 template <class T> bool packed_velocities_pay();
 
 template <class T> void element_forces_linear(const ElementContext<T>& c, Range tets);
