@@ -155,15 +155,18 @@ __attribute__((always_inline)) inline void store_corner_forces_batch(const Eleme
                                       const Mat3<typename TetBatch<T>::V>& P, const typename TetBatch<T>::V g[3][3],
                                       const typename TetBatch<T>::V& volume) {
   using V = typename TetBatch<T>::V;
-  V f0[3] = {V{}, V{}, V{}};
-  for (int a = 0; a < 3; ++a) {
-    for (int i = 0; i < 3; ++i) {
+  // Component by component, so that corner 0's sum is one register: an array f0[3] across the
+  // corner loop was zeroed with `rep stos` and kept in memory (2 % of the AVX2 pass in perf
+  // samples). The same operations on each value, in the same order, as the scalar code.
+  for (int i = 0; i < 3; ++i) {
+    V f0 = V{};
+    for (int a = 0; a < 3; ++a) {
       const V fi = -volume * dot3(P.m[i][0], g[a][0], P.m[i][1], g[a][1], P.m[i][2], g[a][2]);
       at.store_force(c.corner_force[3 * (a + 1) + i], fi);
-      f0[i] -= fi;
+      f0 -= fi;
     }
+    at.store_force(c.corner_force[i], f0);
   }
-  for (int i = 0; i < 3; ++i) at.store_force(c.corner_force[i], f0[i]);
 }
 
 // extract_rotation of tet_local.hpp on every lane of K batches at once. A lane stops changing
