@@ -18,7 +18,7 @@ Command add_stress_command(CLI::App& app) {
     std::int64_t max_scenes = -1;
     std::vector<std::string> meshes;
     std::string report, scene;
-    bool tools = false, capsules = true;
+    bool tools = true, capsules = true;
   };
   auto o = std::make_shared<Options>();
   auto* sub = app.add_subcommand("stress", "Random scenes back to back: NaN, energy, memory and reproducibility checks");
@@ -30,9 +30,9 @@ Command add_stress_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--meshes", o->meshes, "Folders of meshes to draw scenes from (default: the shipped data/meshes; env PLIANT_MESHES)");
   sub->add_option("--report", o->report, "Also write the final report to this file");
-  sub->add_flag("--tools", o->tools,
-                "Also press a tool into one adaptive scene in three (random size, depth, path and refine_near); off by "
-                "default: docs/stress.md says what it finds");
+  sub->add_flag("--tools,!--no-tools", o->tools,
+                "Press a tool into one adaptive scene in three (random size, depth, path and refine_near); on by "
+                "default since 2026-11-28: --no-tools gives the scenes (and digests) of the runs before (docs/stress.md)");
   sub->add_flag("--capsules,!--no-capsules", o->capsules,
                 "With --tools: make half the tools capsules (random length, leaning 0-80 degrees); on by default: "
                 "--no-capsules keeps every tool a sphere, as they all were before 2026-11-26");
