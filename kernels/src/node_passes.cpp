@@ -143,29 +143,26 @@ bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const Integrat
   return g.external[0] ? gather_integrate<T, true, false>(g, table, c, r) : gather_integrate<T, false, false>(g, table, c, r);
 }
 
+namespace {
+// out[4 n + k] = in[k][n] for k < 3 and out[4 n + 3] = 0, on nodes [begin, end).
+template <class T>
+void interleave(const T* const in[3], T* __restrict out, Range r) {
+  const T* __restrict a = in[0];
+  const T* __restrict b = in[1];
+  const T* __restrict c = in[2];
+  for (std::size_t n = r.begin; n < r.end; ++n) {
+    out[4 * n] = a[n];
+    out[4 * n + 1] = b[n];
+    out[4 * n + 2] = c[n];
+    out[4 * n + 3] = T(0);
+  }
+}
+}  // namespace
+
 template <class T>
 void pack_positions(const PackContext<T>& c, Range r) {
-  const T* __restrict x0 = c.x[0];
-  const T* __restrict x1 = c.x[1];
-  const T* __restrict x2 = c.x[2];
-  T* __restrict xp = c.xp;
-  for (std::size_t n = r.begin; n < r.end; ++n) {
-    xp[4 * n] = x0[n];
-    xp[4 * n + 1] = x1[n];
-    xp[4 * n + 2] = x2[n];
-    xp[4 * n + 3] = T(0);
-  }
-  if (!c.vp) return;
-  const T* __restrict v0 = c.v[0];
-  const T* __restrict v1 = c.v[1];
-  const T* __restrict v2 = c.v[2];
-  T* __restrict vp = c.vp;
-  for (std::size_t n = r.begin; n < r.end; ++n) {
-    vp[4 * n] = v0[n];
-    vp[4 * n + 1] = v1[n];
-    vp[4 * n + 2] = v2[n];
-    vp[4 * n + 3] = T(0);
-  }
+  interleave(c.x, c.xp, r);
+  if (c.vp) interleave(c.v, c.vp, r);
 }
 
 template void pack_positions<float>(const PackContext<float>&, Range);
