@@ -36,19 +36,6 @@ __attribute__((always_inline)) inline void load_positions(const ElementContext<T
   }
 }
 
-// The corner velocities of the batch's tets (e.n must be loaded), for the damped passes: from the
-// interleaved copy when the context has one, else gathered from v[3][n].
-template <class T>
-__attribute__((always_inline)) inline void load_velocities(const ElementContext<T>& c, const TetBatch<T>& e,
-                                                           typename TetBatch<T>::V out[4][3]) {
-  if (c.vp) {
-    for (int a = 0; a < 4; ++a) simd::gather_xyz(c.vp, e.n[a], out[a]);
-  } else {
-    for (int a = 0; a < 4; ++a)
-      for (int k = 0; k < 3; ++k) out[a][k] = simd::gather(c.v[k], e.n[a]);
-  }
-}
-
 // Which tets the lanes of a batch hold, and how their per-tet values are read and written.
 // Lanes past `count` repeat the last tet on load and are not stored (simd::load / simd::store).
 //   ConsecutiveTets: tets [first, first + count) — contiguous loads and stores.
@@ -147,6 +134,18 @@ template <class T>
 __attribute__((always_inline)) inline void gather_corners(const T* const y[3], const TetBatch<T>& e, typename TetBatch<T>::V out[4][3]) {
   for (int a = 0; a < 4; ++a)
     for (int k = 0; k < 3; ++k) out[a][k] = simd::gather(y[k], e.n[a]);
+}
+
+// The corner velocities of the batch's tets (e.n must be loaded), for the damped passes: from the
+// interleaved copy when the context has one, else gathered from v[3][n].
+template <class T>
+__attribute__((always_inline)) inline void load_velocities(const ElementContext<T>& c, const TetBatch<T>& e,
+                                                           typename TetBatch<T>::V out[4][3]) {
+  if (c.vp) {
+    for (int a = 0; a < 4; ++a) simd::gather_xyz(c.vp, e.n[a], out[a]);
+  } else {
+    gather_corners(c.v, e, out);
+  }
 }
 
 // store_corner_forces of tet_local.hpp, W tets at once.
