@@ -3,7 +3,10 @@
 // node as soon as its force is summed.
 #include "pliant/kernels/node_passes.hpp"
 
+#include <algorithm>
+#include <climits>
 #include <cmath>
+#include <type_traits>
 #include <cstddef>
 
 namespace pliant {
@@ -37,46 +40,69 @@ namespace {
 #define PLIANT_SCALAR_LOOP
 #endif
 
-// Where the corner-force arrays of every corner are the same distance apart (component 1 at
-// +d1 from component 0, component 2 at +d2, as separately allocated equal arrays usually are),
-// one base pointer per corner is enough: 5 loads per incidence entry instead of 7, and the loop
-// is bound by loads. Otherwise each component's pointer is looked up. Both sum the same values
-// in the same order.
+// How an incidence entry finds its corner forces, fastest first (the same values summed in the
+// same order in all three):
+// - kOffset: the entries pre-encoded as offsets from the block's first array
+//   (GatherContext::corner_offset, checked against the pointers here): one load of the offset and
+//   three loads from fixed base pointers per entry. Measured on an AMD EPYC Zen 3 guest, this
+//   took the gather from 5.1 to N ns per tet (docs/performance.md, "The gather's entries as
+//   offsets"): the loop is a chain of dependent adds per component, and fewer instructions per
+//   entry let the out-of-order core reach further into the next node's chain.
+// - kRegular: the corner-force arrays of every corner the same distance apart (component 1 at
+//   +d1 from component 0, component 2 at +d2): one base pointer per corner, looked up per entry.
+// - kIrregular: each component's pointer looked up per entry.
+enum class Entries { kOffset, kRegular, kIrregular };
+
 template <class T>
 struct CornerTable {
   const T* base[4];
   std::ptrdiff_t d1 = 0, d2 = 0;
-  bool regular = false;
+  Entries entries = Entries::kIrregular;
   explicit CornerTable(const GatherContext<T>& c) {
     const T* const* cf = c.corner_force;
     d1 = cf[1] - cf[0];
     d2 = cf[2] - cf[0];
-    regular = true;
+    bool regular = true;
     for (int k = 0; k < 4; ++k) {
       base[k] = cf[3 * k];
       regular &= cf[3 * k + 1] - cf[3 * k] == d1 && cf[3 * k + 2] - cf[3 * k] == d2;
     }
+    bool block = c.corner_offset != nullptr && c.corner_stride > 0;
+    for (int q = 1; q < 12 && block; ++q) block = cf[q] == cf[0] + std::ptrdiff_t(q) * std::ptrdiff_t(c.corner_stride);
+    entries = block ? Entries::kOffset : regular ? Entries::kRegular : Entries::kIrregular;
   }
 };
 
-template <class T, bool External, bool Regular>
+template <class T, bool External, Entries How>
 PLIANT_SCALAR_LOOP inline void node_force(const GatherContext<T>& c, const CornerTable<T>& table, std::size_t n,
                                           T f[3]) {
   T f0 = 0, f1 = 0, f2 = 0;
   const std::int32_t end = c.offsets[n + 1];
-  for (std::int32_t e = c.offsets[n]; e < end; ++e) {
-    const std::int32_t code = c.incidence[e];
-    const std::int32_t t = code >> 2;
-    if constexpr (Regular) {
-      const T* p = table.base[code & 3] + t;
-      f0 += p[0];
-      f1 += p[table.d1];
-      f2 += p[table.d2];
-    } else {
-      const T* const* p = c.corner_force + 3 * (code & 3);
-      f0 += p[0][t];
-      f1 += p[1][t];
-      f2 += p[2][t];
+  if constexpr (How == Entries::kOffset) {
+    const T* b0 = c.corner_force[0];
+    const T* b1 = c.corner_force[1];
+    const T* b2 = c.corner_force[2];
+    for (std::int32_t e = c.offsets[n]; e < end; ++e) {
+      const std::int32_t o = c.corner_offset[e];
+      f0 += b0[o];
+      f1 += b1[o];
+      f2 += b2[o];
+    }
+  } else {
+    for (std::int32_t e = c.offsets[n]; e < end; ++e) {
+      const std::int32_t code = c.incidence[e];
+      const std::int32_t t = code >> 2;
+      if constexpr (How == Entries::kRegular) {
+        const T* p = table.base[code & 3] + t;
+        f0 += p[0];
+        f1 += p[table.d1];
+        f2 += p[table.d2];
+      } else {
+        const T* const* p = c.corner_force + 3 * (code & 3);
+        f0 += p[0][t];
+        f1 += p[1][t];
+        f2 += p[2][t];
+      }
     }
   }
   if constexpr (External) {
@@ -89,58 +115,162 @@ PLIANT_SCALAR_LOOP inline void node_force(const GatherContext<T>& c, const Corne
   f[2] = f2;
 }
 
-template <class T, bool External, bool Regular>
-PLIANT_SCALAR_LOOP bool gather_integrate(const GatherContext<T>& g, const CornerTable<T>& table,
-                                         const IntegrateContext<T>& c, Range r) {
+// Nodes n and n + 1 at once, with offset entries: two nodes' chains side by side, each summed in
+// its own entry order (the same values as node_force twice). Their common length runs as one
+// loop, so each step of it has two independent adds per component to issue where one node alone
+// would wait on its previous add; the longer node's tail runs alone after it.
+template <class T, bool External>
+PLIANT_SCALAR_LOOP inline void node_force_pair(const GatherContext<T>& c, std::size_t n, T f[6]) {
+  const T* b0 = c.corner_force[0];
+  const T* b1 = c.corner_force[1];
+  const T* b2 = c.corner_force[2];
+  const std::int32_t* off = c.corner_offset;
+  T a0 = 0, a1 = 0, a2 = 0, c0 = 0, c1 = 0, c2 = 0;
+  std::int32_t e = c.offsets[n], g = c.offsets[n + 1];
+  const std::int32_t e_end = g, g_end = c.offsets[n + 2];
+  const std::int32_t common = std::min(e_end - e, g_end - g);
+  for (std::int32_t i = 0; i < common; ++i) {
+    const std::int32_t o = off[e + i], p = off[g + i];
+    a0 += b0[o];
+    c0 += b0[p];
+    a1 += b1[o];
+    c1 += b1[p];
+    a2 += b2[o];
+    c2 += b2[p];
+  }
+  for (e += common; e < e_end; ++e) {
+    const std::int32_t o = off[e];
+    a0 += b0[o];
+    a1 += b1[o];
+    a2 += b2[o];
+  }
+  for (g += common; g < g_end; ++g) {
+    const std::int32_t p = off[g];
+    c0 += b0[p];
+    c1 += b1[p];
+    c2 += b2[p];
+  }
+  if constexpr (External) {
+    a0 += c.external[0][n];
+    a1 += c.external[1][n];
+    a2 += c.external[2][n];
+    c0 += c.external[0][n + 1];
+    c1 += c.external[1][n + 1];
+    c2 += c.external[2][n + 1];
+  }
+  f[0] = a0;
+  f[1] = a1;
+  f[2] = a2;
+  f[3] = c0;
+  f[4] = c1;
+  f[5] = c2;
+}
+
+// Stores node n's force f and integrates it if it is free; false if it diverged.
+template <class T>
+PLIANT_SCALAR_LOOP inline bool store_and_integrate(const GatherContext<T>& g, const IntegrateContext<T>& c,
+                                                   std::size_t n, const T f[3]) {
+  g.f[0][n] = f[0];
+  g.f[1][n] = f[1];
+  g.f[2][n] = f[2];
+  if (c.state[n] != kNodeFree) return true;
   bool finite = true;
   const T dt = c.dt;
-  for (std::size_t n = r.begin; n < r.end; ++n) {
-    T f[3];
-    node_force<T, External, Regular>(g, table, n, f);
-    g.f[0][n] = f[0];
-    g.f[1][n] = f[1];
-    g.f[2][n] = f[2];
-    if (c.state[n] != kNodeFree) continue;
-    for (int k = 0; k < 3; ++k) {
-      const T a = f[k] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
-      const T v = c.v[k][n] + dt * a;
-      const T x = c.x[k][n] + dt * v;
-      c.v[k][n] = v;
-      c.x[k][n] = x;
-      finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
-    }
+  for (int k = 0; k < 3; ++k) {
+    const T a = f[k] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
+    const T v = c.v[k][n] + dt * a;
+    const T x = c.x[k][n] + dt * v;
+    c.v[k][n] = v;
+    c.x[k][n] = x;
+    finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
   }
   return finite;
 }
 
-template <class T, bool External, bool Regular>
-PLIANT_SCALAR_LOOP void gather(const GatherContext<T>& c, const CornerTable<T>& table, Range r) {
-  for (std::size_t n = r.begin; n < r.end; ++n) {
+template <class T, bool External, Entries How>
+PLIANT_SCALAR_LOOP bool gather_integrate(const GatherContext<T>& g, const CornerTable<T>& table,
+                                         const IntegrateContext<T>& c, Range r) {
+  bool finite = true;
+  std::size_t n = r.begin;
+  if constexpr (How == Entries::kOffset) {
+    for (; n + 1 < r.end; n += 2) {
+      T f[6];
+      node_force_pair<T, External>(g, n, f);
+      finite &= store_and_integrate(g, c, n, f);
+      finite &= store_and_integrate(g, c, n + 1, f + 3);
+    }
+  }
+  for (; n < r.end; ++n) {
     T f[3];
-    node_force<T, External, Regular>(c, table, n, f);
+    node_force<T, External, How>(g, table, n, f);
+    finite &= store_and_integrate(g, c, n, f);
+  }
+  return finite;
+}
+
+template <class T, bool External, Entries How>
+PLIANT_SCALAR_LOOP void gather(const GatherContext<T>& c, const CornerTable<T>& table, Range r) {
+  std::size_t n = r.begin;
+  if constexpr (How == Entries::kOffset) {
+    for (; n + 1 < r.end; n += 2) {
+      T f[6];
+      node_force_pair<T, External>(c, n, f);
+      for (int k = 0; k < 3; ++k) {
+        c.f[k][n] = f[k];
+        c.f[k][n + 1] = f[3 + k];
+      }
+    }
+  }
+  for (; n < r.end; ++n) {
+    T f[3];
+    node_force<T, External, How>(c, table, n, f);
     c.f[0][n] = f[0];
     c.f[1][n] = f[1];
     c.f[2][n] = f[2];
   }
 }
 
+// Calls f with the node pass instantiated for the context's external loads and entries.
+template <class T, class F>
+auto dispatch(const GatherContext<T>& g, const CornerTable<T>& table, F&& f) {
+  const bool ext = g.external[0] != nullptr;
+  switch (table.entries) {
+    case Entries::kOffset:
+      return ext ? f(std::true_type{}, std::integral_constant<Entries, Entries::kOffset>{})
+                 : f(std::false_type{}, std::integral_constant<Entries, Entries::kOffset>{});
+    case Entries::kRegular:
+      return ext ? f(std::true_type{}, std::integral_constant<Entries, Entries::kRegular>{})
+                 : f(std::false_type{}, std::integral_constant<Entries, Entries::kRegular>{});
+    default:
+      return ext ? f(std::true_type{}, std::integral_constant<Entries, Entries::kIrregular>{})
+                 : f(std::false_type{}, std::integral_constant<Entries, Entries::kIrregular>{});
+  }
+}
+
 }  // namespace
+
+bool encode_corner_offsets(const std::int32_t* incidence, std::size_t entries, std::size_t stride,
+                           std::int32_t* out) {
+  std::int64_t largest = 0;  // the largest code's tet bounds every offset's tet part
+  for (std::size_t e = 0; e < entries; ++e) largest = std::max<std::int64_t>(largest, incidence[e] >> 2);
+  if (9 * std::int64_t(stride) + largest > std::int64_t(INT32_MAX)) return false;
+  for (std::size_t e = 0; e < entries; ++e)
+    out[e] = std::int32_t(3 * std::int64_t(stride) * (incidence[e] & 3) + (incidence[e] >> 2));
+  return true;
+}
 
 template <class T>
 void gather_forces(const GatherContext<T>& c, Range r) {
   const CornerTable<T> table(c);
-  if (table.regular)
-    c.external[0] ? gather<T, true, true>(c, table, r) : gather<T, false, true>(c, table, r);
-  else
-    c.external[0] ? gather<T, true, false>(c, table, r) : gather<T, false, false>(c, table, r);
+  dispatch(c, table, [&](auto ext, auto how) { gather<T, decltype(ext)::value, decltype(how)::value>(c, table, r); });
 }
 
 template <class T>
 bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const IntegrateContext<T>& c, Range r) {
   const CornerTable<T> table(g);
-  if (table.regular)
-    return g.external[0] ? gather_integrate<T, true, true>(g, table, c, r) : gather_integrate<T, false, true>(g, table, c, r);
-  return g.external[0] ? gather_integrate<T, true, false>(g, table, c, r) : gather_integrate<T, false, false>(g, table, c, r);
+  return dispatch(g, table, [&](auto ext, auto how) {
+    return gather_integrate<T, decltype(ext)::value, decltype(how)::value>(g, table, c, r);
+  });
 }
 
 namespace {

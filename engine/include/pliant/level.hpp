@@ -48,6 +48,9 @@ struct Level {
   // ---- incidence and surface ----
   AlignedVector<std::int32_t> incidence_offsets;  // node_count + 1
   AlignedVector<std::int32_t> incidence;          // 4 * tet + corner, sorted per node
+  // The same entries as offsets into corner_force's block (encode_corner_offsets: the gather's
+  // fast path, GatherContext::corner_offset); empty if they would not fit in 32 bits.
+  AlignedVector<std::int32_t> corner_offset;
   std::vector<std::array<std::int32_t, 3>> boundary;  // outward boundary triangles
 
   // ---- material and time ----

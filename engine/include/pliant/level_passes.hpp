@@ -110,6 +110,8 @@ GatherContext<T> gather_context(Level<T>& L) {
   GatherContext<T> gc;
   gc.offsets = L.incidence_offsets.data();
   gc.incidence = L.incidence.data();
+  gc.corner_offset = L.corner_offset.empty() ? nullptr : L.corner_offset.data();
+  gc.corner_stride = L.corner_force.stride();
   for (int q = 0; q < 12; ++q) gc.corner_force[q] = L.corner_force[q].data();
   for (int k = 0; k < 3; ++k) {
     gc.external[k] = L.external[k].empty() ? nullptr : L.external[k].data();

@@ -226,6 +226,9 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
     for (std::size_t t = 0; t < nt; ++t)
       for (int a = 0; a < 4; ++a) L.incidence[cursor[mesh.tets[t][a]]++] = std::int32_t(4 * t + a);
   }
+  L.corner_offset.resize(L.incidence.size());
+  if (!encode_corner_offsets(L.incidence.data(), L.incidence.size(), L.corner_force.stride(), L.corner_offset.data()))
+    L.corner_offset.clear();
   L.boundary = boundary_triangles(mesh.tets);
 
   // Node states: fixed regions, then prescribed motions (also fixed: the motion drives them).

@@ -108,6 +108,10 @@ void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& j
   for (; n < L.node_count; ++n) js.gather_offsets[n + 1] = std::int32_t(out.size());
   js.gc.offsets = js.gather_offsets.data();
   js.gc.incidence = out.data();
+  js.gather_corner_offset.resize(out.size());
+  const bool fits = encode_corner_offsets(out.data(), out.size(), js.listed_corner_force.stride(), js.gather_corner_offset.data());
+  js.gc.corner_offset = fits ? js.gather_corner_offset.data() : nullptr;
+  js.gc.corner_stride = js.listed_corner_force.stride();
 }
 
 template <class T>

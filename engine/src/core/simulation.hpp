@@ -155,6 +155,7 @@ struct LevelJobState {
   // stepped region's entries, not every tet around its nodes (a middle level stepping 342 of its
   // 5 906 tets read about 4x as many).
   AlignedVector<std::int32_t> gather_offsets, gather_incidence;
+  AlignedVector<std::int32_t> gather_corner_offset;  // gather_incidence as offsets (encode_corner_offsets)
   // A listed level's rest data in list order (ElementContext::listed_tet, listed_grad,
   // listed_volume: ec points at them): its element passes and monitor load them instead of
   // gathering them from tets scattered over its mesh. Made by prepare() from `stepped`.

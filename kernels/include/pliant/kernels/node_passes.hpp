@@ -1,6 +1,7 @@
 // Node passes: the deterministic gather of corner forces into node forces, and the symplectic
 // Euler integrator. Free functions over node ranges, instantiated for float and double.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 
 #include "pliant/kernels/range.hpp"
@@ -38,7 +39,21 @@ struct GatherContext {
   const T* corner_force[12] = {};
   const T* external[3] = {};  // constant nodal loads (N), or null
   T* f[3] = {};               // output: total force on each node (N)
+  // Optional, the entries of `incidence` as element offsets from corner_force[0], for corner
+  // forces in one block whose array q starts at q x corner_stride (encode_corner_offsets): the
+  // gather then loads an entry's three components straight from three base pointers, with no
+  // table lookup per entry. Used only when the corner_force pointers are that block (checked
+  // per call); otherwise, or when null, incidence is read as above. Same sums either way.
+  const std::int32_t* corner_offset = nullptr;
+  std::size_t corner_stride = 0;  // elements from one corner-force array to the next
 };
+
+// out[e] = 3 x stride x (corner) + tet for each incidence code 4 x tet + corner in [0, entries):
+// the offset of the entry's x force from the first array of a corner-force block of that stride
+// (GatherContext::corner_offset). False, and out untouched, when an offset would not fit in 32
+// bits (more than about 178 million tets).
+bool encode_corner_offsets(const std::int32_t* incidence, std::size_t entries, std::size_t stride,
+                           std::int32_t* out);
 
 template <class T>
 void gather_forces(const GatherContext<T>& c, Range nodes);
