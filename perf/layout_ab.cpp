@@ -17,7 +17,13 @@
 //     level's stepped region in runs of about 4), against the range pass over as many consecutive
 //     tets. The per-tet data of listed tets is gathered and their results scattered; the ratio is
 //     what that costs (docs/performance.md, "Partly stepped levels").
-//   ./perf/layout_ab [samples] [packed, incidence or listed]
+//  4. "entries": the fused node pass (gather + integrate) reading its incidence entries as
+//     offsets into the corner-force block and summing two nodes side by side
+//     (GatherContext::corner_offset: the engine's path since 2026-11-28) against the same pass
+//     looking each entry's corner up in a table (corner_offset = null: the code before), on the
+//     same world and forces, corotational box, float and double, 1 and 2 threads, 1k to 1M tets.
+//     The node forces must be the same bits.
+//   ./perf/layout_ab [samples] [packed, incidence, listed or entries]
 #include <immintrin.h>
 
 #include <algorithm>
@@ -497,12 +503,68 @@ void blocked_vs_whole(const BoxSize& size, Precision p, int threads, int samples
   print("blocked", stat(tb, k));
   print("  ratio blocked / whole (per pair)", stat(ratio, 1.0));
 }
+template <class T>
+bool entries_ab(const BoxSize& size, Precision p, int threads, int samples) {
+  World w = make_box_world(ForceModel::corotational, p, threads, size.cells, Order::grid);
+  for (int i = 0; i < 3; ++i) w.step();  // corner forces of a deformed state
+  Level<T>& L = w.level<T>(0);
+  Executor ex(threads);
+  const std::size_t nn = L.node_count, nt = L.tet_count;
+  const GatherContext<T> offsets = gather_context(L);
+  GatherContext<T> table = offsets;
+  table.corner_offset = nullptr;
+  // Same bits: each variant's node forces into arrays of its own.
+  std::vector<T> fa[3], fb[3];
+  GatherContext<T> ga = offsets, gb = table;
+  for (int k = 0; k < 3; ++k) {
+    fa[k].assign(nn, T(0));
+    fb[k].assign(nn, T(1));
+    ga.f[k] = fa[k].data();
+    gb.f[k] = fb[k].data();
+  }
+  gather_forces(ga, Range{0, nn});
+  gather_forces(gb, Range{0, nn});
+  bool same = offsets.corner_offset != nullptr;
+  for (int k = 0; k < 3; ++k) same &= std::memcmp(fa[k].data(), fb[k].data(), nn * sizeof(T)) == 0;
+  const IntegrateContext<T> ic = integrate_context(L, std::array<double, 3>{0, 0, -9.81}, w.dt());
+  auto nodes = [&](const GatherContext<T>& gc) {
+    ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
+  };
+  std::vector<double> tt, to, ratio;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    nodes(table);
+    const double a = since(t);
+    nodes(offsets);
+    const double b = since(t);
+    if (i < 3) continue;
+    tt.push_back(a);
+    to.push_back(b);
+    ratio.push_back(b / a);
+  }
+  const double k = 1e9 / double(nt);
+  std::printf("%s tets, %s, %d thread(s): gather + integrate, ns/tet, median [min - max] of %d%s\n", size.label,
+              p == Precision::float32 ? "float" : "double", threads, samples, same ? "" : "  NODE FORCES DIFFER");
+  print("entries looked up (before)", stat(tt, k));
+  print("entries as offsets, pairs", stat(to, k));
+  print("  ratio offsets / table (per pair)", stat(ratio, 1.0));
+  std::fflush(stdout);
+  return same;
+}
 }  // namespace
 
 int main(int argc, char** argv) {
   const int samples = argc > 1 ? std::atoi(argv[1]) : 41;
   const std::string only = argc > 2 ? argv[2] : "";
   bool ok = true;
+  if (only == "entries") {
+    for (const auto& size : standard_sizes())
+      for (int threads : {1, 2}) {
+        ok &= entries_ab<float>(size, Precision::float32, threads, samples);
+        ok &= entries_ab<double>(size, Precision::float64, threads, samples);
+      }
+    return ok ? 0 : 1;
+  }
   if (only == "blocked") {
     const std::size_t block = argc > 3 ? std::size_t(std::atol(argv[3])) : 32768;
     for (const auto& size : standard_sizes()) {

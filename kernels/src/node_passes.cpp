@@ -44,10 +44,12 @@ namespace {
 // same order in all three):
 // - kOffset: the entries pre-encoded as offsets from the block's first array
 //   (GatherContext::corner_offset, checked against the pointers here): one load of the offset and
-//   three loads from fixed base pointers per entry. Measured on an AMD EPYC Zen 3 guest, this
-//   took the gather from 5.1 to N ns per tet (docs/performance.md, "The gather's entries as
-//   offsets"): the loop is a chain of dependent adds per component, and fewer instructions per
-//   entry let the out-of-order core reach further into the next node's chain.
+//   three loads from fixed base pointers per entry, and two nodes summed side by side
+//   (node_force_pair). Measured on an AMD EPYC Zen 3 guest, 1 thread, 1k and 10k boxes, the two
+//   together took the gather from 4.1 to 2.85 ns per tet (docs/performance.md, "The gather's
+//   entries as offsets"): the loop is a chain of dependent adds per component, and fewer
+//   instructions per entry and two independent chains let the out-of-order core overlap them.
+//   (Four nodes side by side were slower: 3.3-5.1 ns per tet, their tails longer.)
 // - kRegular: the corner-force arrays of every corner the same distance apart (component 1 at
 //   +d1 from component 0, component 2 at +d2): one base pointer per corner, looked up per entry.
 // - kIrregular: each component's pointer looked up per entry.
