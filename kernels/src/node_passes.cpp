@@ -3,22 +3,62 @@
 // node as soon as its force is summed.
 #include "pliant/kernels/node_passes.hpp"
 
+#include "simd.hpp"
+
 #include <algorithm>
 #include <climits>
 #include <cmath>
-#include <type_traits>
 #include <cstddef>
+#include <cstring>
+#include <type_traits>
 
 namespace pliant {
 
+namespace {
+
+// The symplectic Euler update of free nodes [b, e) with forces f, a vector register of nodes at a
+// time (simd::Pack<T>::V, every lane the scalar code's operations in its order: ((f m⁻¹ + g) - α v),
+// then v + dt a, then x + dt v, no fused multiply-add, so the same bits) and the last few alone.
+// A lane whose node is not free stores back the values it loaded (the node's range belongs to the
+// calling thread: nothing else reads or writes it during the pass). True if every free node's new
+// position and velocity are within_bounds.
 template <class T>
-bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range r) {
-  bool finite = true;  // accumulated without branches; see within_bounds
+inline bool integrate_nodes(const IntegrateContext<T>& c, const T* const f[3], std::size_t b, std::size_t e) {
+  using V = typename simd::Pack<T>::V;
+  using M = typename simd::Pack<T>::M;
+  constexpr int W = simd::Pack<T>::W;
   const T dt = c.dt;
-  for (std::size_t n = r.begin; n < r.end; ++n) {
+  const T alpha = c.mass_damping;
+  const T bound = T(kDivergedMagnitude);
+  M diverged = M{};
+  std::size_t n = b;
+  for (; n + W <= e; n += W) {
+    M free_lane;
+    for (int l = 0; l < W; ++l) free_lane[l] = c.state[n + std::size_t(l)] == kNodeFree ? -1 : 0;
+    V inv_mass;
+    std::memcpy(&inv_mass, c.inv_mass + n, sizeof(V));
+    for (int k = 0; k < 3; ++k) {
+      V fk, vk, xk;
+      std::memcpy(&fk, f[k] + n, sizeof(V));
+      std::memcpy(&vk, c.v[k] + n, sizeof(V));
+      std::memcpy(&xk, c.x[k] + n, sizeof(V));
+      const V a = fk * inv_mass + c.gravity[k] - alpha * vk;
+      const V v = vk + dt * a;
+      const V x = xk + dt * v;
+      const M ok = (x <= bound) & (x >= -bound) & (v <= bound) & (v >= -bound);
+      diverged |= free_lane & ~ok;
+      const V v_out = free_lane ? v : vk;
+      const V x_out = free_lane ? x : xk;
+      std::memcpy(c.v[k] + n, &v_out, sizeof(V));
+      std::memcpy(c.x[k] + n, &x_out, sizeof(V));
+    }
+  }
+  bool finite = true;
+  for (int l = 0; l < W; ++l) finite &= diverged[l] == 0;
+  for (; n < e; ++n) {
     if (c.state[n] != kNodeFree) continue;
     for (int k = 0; k < 3; ++k) {
-      const T a = c.f[k][n] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
+      const T a = f[k][n] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
       const T v = c.v[k][n] + dt * a;
       const T x = c.x[k][n] + dt * v;
       c.v[k][n] = v;
@@ -27,6 +67,13 @@ bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range r) {
     }
   }
   return finite;
+}
+
+}  // namespace
+
+template <class T>
+bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range r) {
+  return integrate_nodes(c, c.f, r.begin, r.end);
 }
 
 namespace {
@@ -195,11 +242,27 @@ PLIANT_SCALAR_LOOP bool gather_integrate(const GatherContext<T>& g, const Corner
   bool finite = true;
   std::size_t n = r.begin;
   if constexpr (How == Entries::kOffset) {
-    for (; n + 1 < r.end; n += 2) {
-      T f[6];
-      node_force_pair<T, External>(g, n, f);
-      finite &= store_and_integrate(g, c, n, f);
-      finite &= store_and_integrate(g, c, n + 1, f + 3);
+    // Blocks of kIntegrateBlock nodes: their forces summed two nodes at a time into g.f, then the
+    // block integrated in vector lanes (integrate_nodes) while its forces are in L1.
+    constexpr std::size_t kIntegrateBlock = 64;
+    while (n + 1 < r.end) {
+      const std::size_t end = std::min(r.end, n + kIntegrateBlock);
+      const std::size_t b = n;
+      for (; n + 1 < end; n += 2) {
+        T f[6];
+        node_force_pair<T, External>(g, n, f);
+        for (int k = 0; k < 3; ++k) {
+          g.f[k][n] = f[k];
+          g.f[k][n + 1] = f[3 + k];
+        }
+      }
+      if (n < end) {  // an odd block's last node
+        T f[3];
+        node_force<T, External, How>(g, table, n, f);
+        for (int k = 0; k < 3; ++k) g.f[k][n] = f[k];
+        ++n;
+      }
+      finite &= integrate_nodes(c, g.f, b, end);
     }
   }
   for (; n < r.end; ++n) {

@@ -70,15 +70,17 @@ struct IntegrateContext {
   T mass_damping = 0;                 // alpha (1/s)
 };
 
-// v <- v + dt (f/m + g - alpha v); x <- x + dt v, on free nodes. Returns false if any free
+// v <- v + dt (f/m + g - alpha v); x <- x + dt v, on free nodes (a vector register of nodes at a
+// time, each lane the scalar operations in order: the same bits). Returns false if any free
 // node's new position or velocity is not finite or beyond kDivergedMagnitude (within_bounds;
 // the caller then locates it).
 template <class T>
 bool integrate_symplectic_euler(const IntegrateContext<T>& c, Range nodes);
 
 // gather_forces and then integrate_symplectic_euler in one sweep over the nodes: each node's
-// force is summed, stored in g.f and used at once, so f is not read back from memory. The same
-// results, bit for bit, as the two passes one after the other (i.f must be g.f).
+// force is summed and stored in g.f, and integrated at once (or, with offset entries, its block of
+// 64 nodes in vector lanes while their forces are in L1), so f is not read back from memory. The
+// same results, bit for bit, as the two passes one after the other (i.f must be g.f).
 template <class T>
 bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const IntegrateContext<T>& i, Range nodes);
 
