@@ -1,6 +1,6 @@
 // Gather and integrate (see node_passes.hpp). Both are loops over SoA node arrays; the gather
 // reads corner forces indirectly through the CSR incidence, and the fused pass integrates each
-// node as soon as its force is summed.
+// node as soon as its force is summed (with offset entries, each block of 64 nodes).
 #include "pliant/kernels/node_passes.hpp"
 
 #include "simd.hpp"
@@ -15,6 +15,25 @@
 namespace pliant {
 
 namespace {
+
+// One node's symplectic Euler update with force f (N), if it is free; false if it diverged.
+// always_inline: its callers are compiled with different optimisation attributes
+// (PLIANT_SCALAR_LOOP), which would otherwise keep GCC from inlining it.
+template <class T>
+__attribute__((always_inline)) inline bool integrate_node(const IntegrateContext<T>& c, std::size_t n, const T f[3]) {
+  if (c.state[n] != kNodeFree) return true;
+  bool finite = true;  // accumulated without branches; see within_bounds
+  const T dt = c.dt;
+  for (int k = 0; k < 3; ++k) {
+    const T a = f[k] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
+    const T v = c.v[k][n] + dt * a;
+    const T x = c.x[k][n] + dt * v;
+    c.v[k][n] = v;
+    c.x[k][n] = x;
+    finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
+  }
+  return finite;
+}
 
 // The symplectic Euler update of free nodes [b, e) with forces f, a vector register of nodes at a
 // time (simd::Pack<T>::V, every lane the scalar code's operations in its order: ((f m⁻¹ + g) - α v),
@@ -56,15 +75,8 @@ inline bool integrate_nodes(const IntegrateContext<T>& c, const T* const f[3], s
   bool finite = true;
   for (int l = 0; l < W; ++l) finite &= diverged[l] == 0;
   for (; n < e; ++n) {
-    if (c.state[n] != kNodeFree) continue;
-    for (int k = 0; k < 3; ++k) {
-      const T a = f[k][n] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
-      const T v = c.v[k][n] + dt * a;
-      const T x = c.x[k][n] + dt * v;
-      c.v[k][n] = v;
-      c.x[k][n] = x;
-      finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
-    }
+    const T fn[3] = {f[0][n], f[1][n], f[2][n]};
+    finite &= integrate_node(c, n, fn);
   }
   return finite;
 }
@@ -222,18 +234,7 @@ PLIANT_SCALAR_LOOP inline bool store_and_integrate(const GatherContext<T>& g, co
   g.f[0][n] = f[0];
   g.f[1][n] = f[1];
   g.f[2][n] = f[2];
-  if (c.state[n] != kNodeFree) return true;
-  bool finite = true;
-  const T dt = c.dt;
-  for (int k = 0; k < 3; ++k) {
-    const T a = f[k] * c.inv_mass[n] + c.gravity[k] - c.mass_damping * c.v[k][n];
-    const T v = c.v[k][n] + dt * a;
-    const T x = c.x[k][n] + dt * v;
-    c.v[k][n] = v;
-    c.x[k][n] = x;
-    finite &= within_bounds(x, v);  // finite and below kDivergedMagnitude
-  }
-  return finite;
+  return integrate_node(c, n, f);
 }
 
 template <class T, bool External, Entries How>

@@ -14,13 +14,12 @@
 
 #include "pliant/kernels/node_passes.hpp"
 
+#include "../support/same_bits.hpp"
+
 namespace pliant {
 namespace {
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using test::same_bits;
 
 // A random "mesh": tets over nodes, so that nodes have from 0 to about 20 entries (uneven
 // neighbours are what the pairs' tails are for), corner forces of mixed signs and magnitudes

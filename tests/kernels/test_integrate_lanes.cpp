@@ -14,13 +14,12 @@
 
 #include "pliant/kernels/node_passes.hpp"
 
+#include "../support/same_bits.hpp"
+
 namespace pliant {
 namespace {
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using test::same_bits;
 
 template <class T>
 struct Nodes {

@@ -13,6 +13,7 @@
 #include <random>
 #include <vector>
 
+#include "../support/same_bits.hpp"
 #include "../support/element_arrays.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/node_passes.hpp"
@@ -144,10 +145,7 @@ struct Strip : test::ElementArrays<T> {
   }
 };
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using test::same_bits;
 
 template <class T>
 void check_split_invariance(bool damped) {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "../support/element_arrays.hpp"
+#include "../support/same_bits.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/element_stiffness.hpp"
 #include "pliant/kernels/node_passes.hpp"
@@ -103,9 +104,7 @@ struct Tets : test::ElementArrays<T> {
   }
 };
 
-bool same_bits(const std::vector<double>& a, const std::vector<double>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(double)) == 0;
-}
+using test::same_bits;
 
 // max(1, r...) skipping NaN, the fold World's monitor did over the per-tet ratios.
 double fold_max(const std::vector<double>& r, Range range) {
