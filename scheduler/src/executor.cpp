@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <thread>
 
 #include <tbb/blocked_range.h>
@@ -274,17 +275,33 @@ bool Executor::run_phases(const Phase* phases, std::size_t count) {
       phase_end_.push_back(std::uint32_t(region_chunks_.size()));
   }
   if (region_chunks_.empty()) return true;
-  if (!arena_ || region_chunks_.size() == 1 || items < region_serial_below_) {
-    bool all = true;
-    for (const RegionChunk& c : region_chunks_) {
-      if (c.pred) {
-        all &= c.pred(c.ctx, c.range);
-      } else {
-        c.fn(c.ctx, c.range);
-      }
-    }
-    return all;
+  if (!arena_ || region_chunks_.size() == 1) return run_region_serial();
+  if (region_threshold_fixed_) return items < region_serial_below_ ? run_region_serial() : run_region_parallel();
+  // Chosen by timing both ways (RegionChooser); only regions that explore read the clock.
+  const bool parallel = region_chooser_.parallel(items);
+  if (!region_chooser_.exploring(items)) {
+    region_chooser_.record(items, parallel, 0);
+    return parallel ? run_region_parallel() : run_region_serial();
   }
+  const auto start = std::chrono::steady_clock::now();
+  const bool all = parallel ? run_region_parallel() : run_region_serial();
+  region_chooser_.record(items, parallel, std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  return all;
+}
+
+bool Executor::run_region_serial() {
+  bool all = true;
+  for (const RegionChunk& c : region_chunks_) {
+    if (c.pred) {
+      all &= c.pred(c.ctx, c.range);
+    } else {
+      c.fn(c.ctx, c.range);
+    }
+  }
+  return all;
+}
+
+bool Executor::run_region_parallel() {
   // One TBB fork-join for the whole region: arena.execute + a parallel_for of one iteration per
   // thread, each running work_region until no chunk is left. TBB rather than threads of our own:
   // its workers are already there (parallel_for and Embree's commits use them), a second pool

@@ -150,6 +150,7 @@ TEST(RunPhases, ThePredicateIsTheAndOfEveryChunk) {
 
 TEST(RunPhases, NoWorkIsTrueAndSmallRegionsRunOnTheCaller) {
   Executor ex(2);
+  ex.set_region_serial_below(Executor::kRegionSerialBelow);  // a fixed threshold, not the timed choice
   EXPECT_TRUE(ex.run_phases(nullptr, 0));
   const Executor::Phase empty[3] = {};
   EXPECT_TRUE(ex.run_phases(empty, 3));
@@ -167,11 +168,29 @@ TEST(RunPhases, NoWorkIsTrueAndSmallRegionsRunOnTheCaller) {
   const Executor::Segment seg[] = {{8 * 16, 16, record, &seen}};
   const Executor::Phase one[] = {{seg, 1, nullptr, 0}};
   ASSERT_LT(8u * 16u, Executor::kRegionSerialBelow);
+  EXPECT_FALSE(ex.region_runs_parallel(8 * 16));
+  EXPECT_TRUE(ex.region_runs_parallel(Executor::kRegionSerialBelow));
   EXPECT_TRUE(ex.run_phases(one, 1));
   ASSERT_EQ(seen.next, 8u);
   for (std::size_t i = 0; i < 8; ++i) {
     EXPECT_EQ(seen.id[i], std::this_thread::get_id());
     EXPECT_EQ(seen.order[i], 16 * i);
+  }
+}
+
+// The default, timed choice between the caller alone and every thread (RegionChooser): whichever
+// way it goes, region after region, through its exploration and after it, every phase sees the
+// one before and the results are the same.
+TEST(RunPhases, TheTimedChoiceGivesTheSameResultsEitherWay) {
+  for (int threads : {1, 2}) {
+    Executor ex(threads);
+    Data d;
+    d.n = 1000;  // a small region: the chooser decides
+    const auto want = expected(d.n);
+    int wrong = 0;
+    EXPECT_TRUE(run(ex, d, 64, 4 * (RegionChooser::kWarmup + RegionChooser::kTrials), want, wrong)) << threads;
+    EXPECT_EQ(wrong, 0) << threads;
+    if (threads == 1) EXPECT_FALSE(ex.region_runs_parallel(3 * d.n));  // no second thread to use
   }
 }
 

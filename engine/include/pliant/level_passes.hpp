@@ -19,8 +19,9 @@ inline constexpr std::size_t kNodeGrain = 1024;
 inline constexpr std::size_t kSerialBelow = 2048;
 inline std::size_t pass_grain(std::size_t n, std::size_t g) { return n < kSerialBelow ? n : g; }
 
-// The passes of a tick run as phases of one parallel region (Executor::run_phases, from
-// Executor::kRegionSerialBelow items on), whose threads take chunks one at a time, their own
+// The passes of a tick run as phases of one parallel region (Executor::run_phases; a small region
+// runs on the calling thread alone where that was timed faster on this machine, RegionChooser),
+// whose threads take chunks one at a time, their own
 // block of each phase first. One chunk per thread and pass (about n / threads items), but none
 // under kTickTetChunk tets or kTickNodeChunk nodes. Measured on a 2-vCPU Xeon (AVX-512), corotational float, 2 threads, idle
 // host, p50 per step: 4 chunks per thread capped at the loop grain were slower than the old

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "pliant/kernels/range.hpp"
+#include "pliant/scheduler/region_chooser.hpp"
 
 namespace pliant {
 
@@ -71,16 +72,28 @@ class Executor {
     std::size_t predicate_count = 0;
   };
   bool run_phases(const Phase* phases, std::size_t count);
-  // Below this many items (tets + nodes + ghosts ...) in all the phases of a region, run_phases
-  // runs them on the calling thread. Measured on a quiet 2-vCPU Xeon (pliant bench, three runs,
-  // docs/performance.md "Small bodies"): with the region parallel from 1,024 items, a 1,152-tet
-  // box (about 1,500 items) stepped in 20.6 us on 2 threads against 16.9 on 1 (the region's
-  // fork-join and phase waits cost more than half its work), a 2,016-tet box (about 2,500 items)
-  // in 25.8 against 29.2: the crossover lies between, hence 2048.
+  // Which regions run on the calling thread alone. From kRegionSerialBelow items (tets + nodes +
+  // ghosts ... in all the phases) on, a region runs on every thread; below it, by default, each
+  // size of region is timed both ways on this machine and runs the faster way (RegionChooser,
+  // region_chooser.hpp: a 1,152-tet box stepped 1.6x faster on 2 threads than on 1 on a 2-vCPU AMD
+  // EPYC, 1.2x slower on a 2-vCPU Xeon). The choice never changes a result.
+  // set_region_serial_below(n) replaces both by a fixed threshold: below n items on the caller,
+  // from n on in parallel (0: every region with two chunks or more in parallel; tests use it to
+  // run the parallel path on small problems). kRegionSerialBelow was that fixed threshold until
+  // 2026-11-28, measured on a quiet 2-vCPU Xeon (docs/performance.md, "Small bodies": with the
+  // region parallel from 1,024 items, a 1,152-tet box, about 1,500 items, stepped in 20.6 us on 2
+  // threads against 16.9 on 1; a 2,016-tet box in 25.8 against 29.2).
   static constexpr std::size_t kRegionSerialBelow = 2048;
-  // Another threshold for this executor's regions (0: every region with two chunks or more runs
-  // in parallel; tests use it to run the parallel path on small problems).
-  void set_region_serial_below(std::size_t items) { region_serial_below_ = items; }
+  static_assert(RegionChooser::kAlwaysParallelFrom == kRegionSerialBelow);
+  void set_region_serial_below(std::size_t items) {
+    region_serial_below_ = items;
+    region_threshold_fixed_ = true;
+  }
+  // Whether a region of `items` items would run in parallel now (for reports and tests).
+  bool region_runs_parallel(std::size_t items) const {
+    if (!arena_) return false;
+    return region_threshold_fixed_ ? items >= region_serial_below_ : region_chooser_.parallel(items);
+  }
 
   // Calls fn(ctx) on this executor's threads, isolated: TBB loops that fn runs (a library using
   // TBB, such as Embree's BVH commit) use at most threads() threads and never pick up other work.
@@ -115,8 +128,12 @@ class Executor {
     Range range;
   };
   std::vector<RegionChunk> region_chunks_;
+  bool run_region_serial();    // region_chunks_ in order on the caller
+  bool run_region_parallel();  // region_chunks_ on every thread, phase by phase
   std::vector<std::uint32_t> phase_end_;  // one past each phase's last chunk in region_chunks_
-  std::size_t region_serial_below_ = kRegionSerialBelow;
+  std::size_t region_serial_below_ = kRegionSerialBelow;  // with region_threshold_fixed_
+  bool region_threshold_fixed_ = false;
+  RegionChooser region_chooser_;
 
   struct Arena;
   int threads_ = 1;
