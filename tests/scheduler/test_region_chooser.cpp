@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cstddef>
+#include <cstdint>
 
 #include "pliant/scheduler/region_chooser.hpp"
 
@@ -26,6 +27,16 @@ int explore(RegionChooser& c, std::size_t items, double serial_s, double paralle
   }
   EXPECT_FALSE(c.exploring(items));
   return parallel_runs;
+}
+
+// Runs decided regions of the class of `items` until it explores again; returns how many ran.
+std::uint32_t regions_until_exploring(RegionChooser& c, std::size_t items) {
+  std::uint32_t n = 0;
+  while (!c.exploring(items) && n < 10 * RegionChooser::kRecheckEvery) {
+    c.record(items, c.parallel(items), 0);
+    ++n;
+  }
+  return n;
 }
 
 TEST(RegionChooser, TriesEachWayInABlockThenKeepsTheFaster) {
@@ -74,21 +85,11 @@ TEST(RegionChooser, ExploresAgainSoonAfterTheFirstDecisionThenRarely) {
   // Decided at the start (a body's first steps): parallel looked slow.
   explore(c, items, 20e-6, 30e-6);
   ASSERT_FALSE(c.parallel(items));
-  for (std::uint32_t i = 0; i + 1 < RegionChooser::kFirstRecheck; ++i) {
-    c.record(items, false, 0);
-    ASSERT_FALSE(c.exploring(items)) << i;
-  }
-  c.record(items, false, 0);
-  EXPECT_TRUE(c.exploring(items));
+  EXPECT_EQ(regions_until_exploring(c, items), RegionChooser::kFirstRecheck);
   // Warm now: parallel is faster, and the choice follows.
   explore(c, items, 20e-6, 12e-6);
   EXPECT_TRUE(c.parallel(items));
-  for (std::uint32_t i = 0; i + 1 < RegionChooser::kRecheckEvery; ++i) {
-    c.record(items, true, 0);
-    ASSERT_FALSE(c.exploring(items)) << i;
-  }
-  c.record(items, true, 0);
-  EXPECT_TRUE(c.exploring(items));
+  EXPECT_EQ(regions_until_exploring(c, items), RegionChooser::kRecheckEvery);
   // The other core is now busy elsewhere: parallel has become slower.
   explore(c, items, 20e-6, 35e-6);
   EXPECT_FALSE(c.parallel(items));
