@@ -68,7 +68,10 @@ inline void* HugeArrays::allocate(std::size_t bytes) {
 inline void HugeArrays::deallocate(void* p, std::size_t bytes) {
   // The stagger is under one huge page: rounding down finds the allocation.
   void* base = reinterpret_cast<void*>(reinterpret_cast<std::uintptr_t>(p) / kHugePage * kHugePage);
-  ::operator delete(base, footprint(bytes), std::align_val_t{kHugePage});
+  // The unsized form: clang (14, the TSan build's compiler) declares the sized aligned delete only
+  // with -fsized-deallocation, and the size is not needed to free.
+  (void)bytes;
+  ::operator delete(base, std::align_val_t{kHugePage});
 }
 
 template <class T>
