@@ -7,7 +7,8 @@
 // Intel Xeon (docs/performance.md, "Small bodies"), but in 13.1-13.5 against 20.9-21.6 on a
 // 2-vCPU AMD EPYC (Zen 3, 2026-11-28): no fixed threshold suits both. The choice never changes a
 // result: the chunks of a region write disjoint outputs, so which thread runs them does not
-// matter (the same bits on 1, 2 or 4 threads, tests/engine/test_determinism*.cpp).
+// matter (the same state hashes on 1, 2 and 4 threads: the Determinism tests of
+// tests/core/test_world.cpp).
 //
 // How: regions are grouped by size (items in [2^k, 2^(k+1))). Each size class first runs a block
 // of regions on the caller and a block on every thread (in blocks: a second thread left asleep by
