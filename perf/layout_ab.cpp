@@ -23,7 +23,13 @@
 //     looking each entry's corner up in a table (corner_offset = null: the code before), on the
 //     same world and forces, corotational box, float and double, 1 and 2 threads, 1k to 1M tets.
 //     The node forces must be the same bits.
-//   ./perf/layout_ab [samples] [packed, incidence, listed or entries]
+//  5. "rayleigh": the corotational element pass with Rayleigh stiffness damping (beta = 1e-4 s, the
+//     default scene's), the viscous stress as one Hooke law of eps + beta eps_dot
+//     (ElementContext::rayleigh: the engine's path since 2026-11-28) against two Hooke laws added
+//     (rayleigh = 0: the code before), positions and velocities packed as the step packs them,
+//     float and double, 1 and 2 threads, 1k to 1M tets. Not the same bits: the largest corner
+//     force difference is printed, relative to the largest corner force.
+//   ./perf/layout_ab [samples] [packed, incidence, listed, entries or rayleigh]
 #include <immintrin.h>
 
 #include <algorithm>
@@ -551,6 +557,80 @@ bool entries_ab(const BoxSize& size, Precision p, int threads, int samples) {
   std::fflush(stdout);
   return same;
 }
+// 5: Rayleigh damping as one Hooke law against two added (the element pass alone).
+template <class T>
+void rayleigh_ab(const BoxSize& size, Precision p, int threads, int samples) {
+  BodyDef b = box_body(ForceModel::corotational, size.cells);
+  b.material.damping.stiffness = 1e-4;  // s, as the default scene
+  WorldDef wd;
+  wd.precision = p;
+  wd.threads = threads;
+  World w(wd);
+  w.add_body(b, box_mesh(size.cells, Order::grid));
+  // A deformed, moving state: 100 steps of sag. After 3 (as the other modes) the strains are
+  // ~1e-5, near float's rounding of R^T F - I (1.2e-7), and the two ways' rounding differs by up to
+  // 1 % of the forces (0.0008-0.014 measured); after 100, 1e-5 (double 2e-14): rounding.
+  for (int i = 0; i < 100; ++i) w.step();
+  Level<T>& L = w.level<T>(0);
+  Executor ex(threads);
+  const std::size_t nt = L.tet_count, nn = L.node_count;
+  ElementContext<T> one = element_context(L);
+  const PackContext<T> pk = pack_context(L);
+  if (pack_pays(L, nt)) {  // as the step: positions (and velocities where that pays) packed
+    pack_positions(pk, Range{0, nn});
+    use_packed(one, pk, true);
+  }
+  ElementContext<T> two = one;
+  two.rayleigh = T(0);
+  const ElementPass<T> pass = force_kernel<T>(L.model);
+  auto element = [&](const ElementContext<T>& ec) {
+    ex.parallel_for(nt, pass_grain(nt, kTetGrain), [&](Range r) { pass(ec, r); });
+  };
+  // The forces of each from the same stored rotations (each pass refines them in place, within
+  // the rotation's tolerance: a pass repeated differs from itself by that much, printed too).
+  std::vector<T> rot[4], f_two[12];
+  for (int k = 0; k < 4; ++k) rot[k].assign(L.rotation[k].begin(), L.rotation[k].end());
+  auto from_saved_rotations = [&](const ElementContext<T>& ec) {
+    for (int k = 0; k < 4; ++k) std::copy(rot[k].begin(), rot[k].end(), L.rotation[k].begin());
+    element(ec);
+  };
+  from_saved_rotations(two);
+  for (int q = 0; q < 12; ++q) f_two[q].assign(L.corner_force[q].begin(), L.corner_force[q].end());
+  auto difference = [&](double& diff, double& largest) {
+    diff = largest = 0;
+    for (int q = 0; q < 12; ++q)
+      for (std::size_t t = 0; t < nt; ++t) {
+        diff = std::max(diff, std::fabs(double(L.corner_force[q][t]) - double(f_two[q][t])));
+        largest = std::max(largest, std::fabs(double(f_two[q][t])));
+      }
+  };
+  double diff = 0, largest = 0, again = 0;
+  element(two);  // from the refined rotations
+  difference(again, largest);
+  from_saved_rotations(one);
+  difference(diff, largest);
+  std::vector<double> tt, to, ratio;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    element(two);
+    const double a = since(t);
+    element(one);
+    const double c = since(t);
+    if (i < 3) continue;
+    tt.push_back(a);
+    to.push_back(c);
+    ratio.push_back(c / a);
+  }
+  const double k = 1e9 / double(nt);
+  std::printf("%s tets, %s, %d thread(s), rayleigh %s: element pass ns/tet, median [min - max] of %d; forces differ by %.2g "
+              "of the largest (a pass repeated: %.2g)\n",
+              size.label, p == Precision::float32 ? "float" : "double", threads, one.rayleigh != T(0) ? "on" : "NOT SET",
+              samples, diff / largest, again / largest);
+  print("two Hooke laws (before)", stat(tt, k));
+  print("one Hooke law", stat(to, k));
+  print("  ratio one / two (per pair)", stat(ratio, 1.0));
+  std::fflush(stdout);
+}
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -564,6 +644,14 @@ int main(int argc, char** argv) {
         ok &= entries_ab<double>(size, Precision::float64, threads, samples);
       }
     return ok ? 0 : 1;
+  }
+  if (only == "rayleigh") {
+    for (const auto& size : standard_sizes())
+      for (int threads : {1, 2}) {
+        rayleigh_ab<float>(size, Precision::float32, threads, samples);
+        rayleigh_ab<double>(size, Precision::float64, threads, samples);
+      }
+    return 0;
   }
   if (only == "blocked") {
     const std::size_t block = argc > 3 ? std::size_t(std::atol(argv[3])) : 32768;

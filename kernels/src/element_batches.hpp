@@ -4,7 +4,7 @@
 // one-tet-at-a-time loop, whatever the range boundaries or the list
 // (tests/kernels/test_kernel_batches.cpp). Branch-free per batch except the corotational rotation
 // refinement (until every lane has converged); damping terms are compiled in only when a viscous
-// coefficient is non-zero (Damped), so undamped runs do not read velocities.
+// coefficient is non-zero (Damping below), so undamped runs do not read velocities.
 //
 // Included by element_forces.cpp (the passes over ranges) and element_forces_listed.cpp (over
 // lists): one translation unit each, so that each keeps the inlining budget the range passes
@@ -24,16 +24,46 @@ bool has_viscosity(const ElementContext<T>& c) {
   return c.bulk_viscosity != T(0) || c.shear_viscosity != T(0);
 }
 
+// How a pass damps. viscous: the viscous stress D(e_dot) = phi tr(e_dot) I + 2 psi e_dot of the
+// model's strain rate, a second Hooke law added to the elastic stress. rayleigh: the viscosities
+// are beta times the Lamé moduli (ElementContext::rayleigh, Rayleigh stiffness damping: the
+// default scene's), so D(e_dot) = Hooke(beta e_dot) and the stress is one Hooke law of the strain
+// e + beta e_dot (the same value; a Hooke law and a product with R or F fewer per tet: the
+// corotational damped pass counts 557 flops instead of 634, perf/src/workload.cpp).
+enum class Damping { none, viscous, rayleigh };
+
+template <class T>
+Damping damping_of(const ElementContext<T>& c) {
+  if (!has_viscosity(c)) return Damping::none;
+  return c.rayleigh != T(0) ? Damping::rayleigh : Damping::viscous;
+}
+
+// y = a + beta b, entry by entry (the strain plus beta times its rate).
+template <class V, class S>
+__attribute__((always_inline)) inline Mat3<V> plus_scaled(const Mat3<V>& a, S beta, const Mat3<V>& b) {
+  Mat3<V> y;
+  const V vb = splat<V>(beta);
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) y.m[i][j] = simd::mul_add(vb, b.m[i][j], a.m[i][j]);
+  return y;
+}
+
 // ---- linear (Cauchy) ------------------------------------------------------------------------
-template <class T, bool Damped, class At>
+template <class T, Damping Damp, class At>
 __attribute__((always_inline)) inline void linear_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
-  Mat3<V> eps = sym(corner_gradient(e.x, e.g));
+  Mat3<V> F = corner_gradient(e.x, e.g);
+  if constexpr (Damp == Damping::rayleigh) {  // eps + beta eps_dot = sym(F + beta F_dot) - I
+    V v[4][3];
+    load_velocities(c, e, v);
+    F = plus_scaled(F, c.rayleigh, corner_gradient(v, e.g));
+  }
+  Mat3<V> eps = sym(F);
   for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
   Mat3<V> P = hooke(eps, c.lambda, c.mu);
-  if constexpr (Damped) {
+  if constexpr (Damp == Damping::viscous) {
     V v[4][3];
     load_velocities(c, e, v);
     add_to(P, hooke(sym(corner_gradient(v, e.g)), c.bulk_viscosity, c.shear_viscosity));
@@ -43,14 +73,14 @@ __attribute__((always_inline)) inline void linear_batch(const ElementContext<T>&
 
 // Stores the corner forces of the first Piola–Kirchhoff stress Q S (stvk: Q = F, S the second
 // Piola–Kirchhoff stress; corotational: Q = R, S the corotated stress), with the viscous stress of
-// the strain rate sym(Q^T F_dot) added to S when Damped.
-template <class T, bool Damped, class At>
+// the strain rate sym(Q^T F_dot) added to S when viscous (rayleigh: S has it already).
+template <class T, Damping Damp, class At>
 __attribute__((always_inline)) inline void store_stress_batch(const ElementContext<T>& c, const At& at,
                                                               const TetBatch<T>& e,
                                                               const Mat3<typename simd::Pack<T>::V>& Q,
                                                               Mat3<typename simd::Pack<T>::V> S) {
   using V = typename simd::Pack<T>::V;
-  if constexpr (Damped) {
+  if constexpr (Damp == Damping::viscous) {
     V v[4][3];
     load_velocities(c, e, v);
     const Mat3<V> Fdot = corner_gradient(v, e.g);
@@ -60,24 +90,35 @@ __attribute__((always_inline)) inline void store_stress_batch(const ElementConte
 }
 
 // ---- St Venant–Kirchhoff (Green–Lagrange) ---------------------------------------------------
-template <class T, bool Damped, class At>
+template <class T, Damping Damp, class At>
 __attribute__((always_inline)) inline void stvk_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
   const Mat3<V> F = corner_gradient(e.x, e.g);
-  Mat3<V> E = sym(mul_tn(F, F));
+  // E = (sym(F^T F) - I) / 2; with rayleigh E + beta E_dot = (sym(F^T (F + 2 beta F_dot)) - I) / 2,
+  // E_dot = sym(F^T F_dot).
+  Mat3<V> E;
+  if constexpr (Damp == Damping::rayleigh) {
+    V v[4][3];
+    load_velocities(c, e, v);
+    E = sym(mul_tn(F, plus_scaled(F, T(2) * c.rayleigh, corner_gradient(v, e.g))));
+  } else {
+    E = sym(mul_tn(F, F));
+  }
   for (int i = 0; i < 3; ++i) E.m[i][i] -= T(1);
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) E.m[i][j] *= T(0.5);
-  store_stress_batch<T, Damped>(c, at, e, F, hooke(E, c.lambda, c.mu));
+  store_stress_batch<T, Damp>(c, at, e, F, hooke(E, c.lambda, c.mu));
 }
 
 // ---- corotational ---------------------------------------------------------------------------
 // The corotated strain sym(R^T F) - I of the loaded batch e, R refined from the stored rotation
 // (its warm start); the refined rotation is stored back only when Keep (the force pass: the energy
 // report works on a copy, so that measuring never changes the trajectory).
-template <class T, bool Keep, class At>
+// With rayleigh (Damp), the strain plus beta times its rate, sym(R^T (F + beta F_dot)) - I (R from F
+// alone, so the same rotation as undamped).
+template <class T, bool Keep, Damping Damp = Damping::none, class At>
 __attribute__((always_inline)) inline Mat3<typename simd::Pack<T>::V> corotated_strain_batch(
     const ElementContext<T>& c, const At& at, const TetBatch<T>& e, Mat3<typename simd::Pack<T>::V>& R) {
   using V = typename simd::Pack<T>::V;
@@ -89,25 +130,32 @@ __attribute__((always_inline)) inline Mat3<typename simd::Pack<T>::V> corotated_
   if constexpr (Keep)
     for (int k = 0; k < 4; ++k) at.store(c.rotation[k], q[0][k]);
   R = Rb[0];
-  Mat3<V> eps = sym(mul_tn(R, F[0]));
+  Mat3<V> eps;
+  if constexpr (Damp == Damping::rayleigh) {
+    V v[4][3];
+    load_velocities(c, e, v);
+    eps = sym(mul_tn(R, plus_scaled(F[0], c.rayleigh, corner_gradient(v, e.g))));
+  } else {
+    eps = sym(mul_tn(R, F[0]));
+  }
   for (int i = 0; i < 3; ++i) eps.m[i][i] -= T(1);
   return eps;
 }
 
-template <class T, bool Damped, class At>
+template <class T, Damping Damp, class At>
 __attribute__((always_inline)) inline void corotational_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
   load_batch(c, at, e);
   Mat3<V> R;
-  const Mat3<V> eps = corotated_strain_batch<T, true>(c, at, e, R);
-  store_stress_batch<T, Damped>(c, at, e, R, hooke(eps, c.lambda, c.mu));
+  const Mat3<V> eps = corotated_strain_batch<T, true, Damp>(c, at, e, R);
+  store_stress_batch<T, Damp>(c, at, e, R, hooke(eps, c.lambda, c.mu));
 }
 
 // ---- springs --------------------------------------------------------------------------------
 constexpr int kEdges[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
 
-template <class T, bool Damped, class At>
+template <class T, Damping Damp, class At>
 __attribute__((always_inline)) inline void springs_batch(const ElementContext<T>& c, const At& at) {
   using V = typename simd::Pack<T>::V;
   TetBatch<T> e;
@@ -116,6 +164,7 @@ __attribute__((always_inline)) inline void springs_batch(const ElementContext<T>
   load_positions(c, e);
   auto& x = e.x;
   gather_corners(c.X, e, X);
+  constexpr bool Damped = Damp != Damping::none;  // beta's dashpots (spring_damping), either way
   if constexpr (Damped) load_velocities(c, e, v);
   const V volume = at.volume(c);
   V f[4][3] = {};
@@ -165,12 +214,12 @@ inline void corotational_energy_batch(const ElementContext<T>& c, const At& at, 
 }
 
 // The models as types, for the passes below.
-#define PLIANT_BATCH_MODEL(Name, fn)                                                                   \
-  struct Name {                                                                                     \
-    template <class T, bool Damped, class At>                                                       \
-    __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at) {   \
-      fn<T, Damped>(c, at);                                                                         \
-    }                                                                                               \
+#define PLIANT_BATCH_MODEL(Name, fn)                                                              \
+  struct Name {                                                                                   \
+    template <class T, Damping Damp, class At>                                                    \
+    __attribute__((always_inline)) static void batch(const ElementContext<T>& c, const At& at) { \
+      fn<T, Damp>(c, at);                                                                         \
+    }                                                                                             \
   };
 PLIANT_BATCH_MODEL(Linear, linear_batch)
 PLIANT_BATCH_MODEL(Stvk, stvk_batch)
@@ -180,17 +229,17 @@ PLIANT_BATCH_MODEL(Springs, springs_batch)
 
 // The passes: W tets at a time of the range, or of the listed tets ids[r.begin..r.end). One
 // function per model, damping and addressing, so that each inlines its one batch.
-template <class Model, class T, bool Damped>
+template <class Model, class T, Damping Damp>
 void range_pass(const ElementContext<T>& c, Range r) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W)
-    Model::template batch<T, Damped>(c, ConsecutiveTets<T>{t, int(std::min<std::size_t>(W, r.end - t))});
+    Model::template batch<T, Damp>(c, ConsecutiveTets<T>{t, int(std::min<std::size_t>(W, r.end - t))});
 }
-template <class Model, class T, bool Damped>
+template <class Model, class T, Damping Damp>
 void listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r) {
   constexpr int W = simd::Pack<T>::W;
   for (std::size_t t = r.begin; t < r.end; t += W)
-    Model::template batch<T, Damped>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t)), c.listed_corner_forces));
+    Model::template batch<T, Damp>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t)), c.listed_corner_forces));
 }
 
 }  // namespace pliant::detail

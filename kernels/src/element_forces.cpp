@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <type_traits>
 
 #include "element_batches.hpp"
@@ -34,8 +35,13 @@ Mat3<T> corotational_strain(const ElementContext<T>& c, std::size_t t, const Mat
 }
 
 template <class Model, class T>
-void forces(const ElementContext<T>& c, Range r, bool damped) {
-  damped ? detail::range_pass<Model, T, true>(c, r) : detail::range_pass<Model, T, false>(c, r);
+void forces(const ElementContext<T>& c, Range r, detail::Damping d) {
+  using detail::Damping;
+  switch (d) {
+    case Damping::none: return detail::range_pass<Model, T, Damping::none>(c, r);
+    case Damping::viscous: return detail::range_pass<Model, T, Damping::viscous>(c, r);
+    case Damping::rayleigh: return detail::range_pass<Model, T, Damping::rayleigh>(c, r);
+  }
 }
 
 }  // namespace
@@ -57,20 +63,29 @@ bool packed_velocities_pay() {
 }
 
 template <class T>
+T rayleigh_factor(T lambda, T mu, T phi, T psi) {
+  if (!(mu > T(0)) || !(psi > T(0)) || !(lambda >= T(0)) || !(phi >= T(0))) return T(0);
+  const T beta = psi / mu;
+  const T want = beta * lambda;  // phi if proportional (0 when lambda = 0: nu = 0)
+  const T tolerance = T(8) * std::numeric_limits<T>::epsilon() * std::max(phi, want);
+  return std::abs(phi - want) <= tolerance ? beta : T(0);
+}
+
+template <class T>
 void element_forces_linear(const ElementContext<T>& c, Range r) {
-  forces<detail::Linear>(c, r, detail::has_viscosity(c));
+  forces<detail::Linear>(c, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_stvk(const ElementContext<T>& c, Range r) {
-  forces<detail::Stvk>(c, r, detail::has_viscosity(c));
+  forces<detail::Stvk>(c, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_corotational(const ElementContext<T>& c, Range r) {
-  forces<detail::Corotational>(c, r, detail::has_viscosity(c));
+  forces<detail::Corotational>(c, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_springs(const ElementContext<T>& c, Range r) {
-  forces<detail::Springs>(c, r, c.spring_damping != T(0));
+  forces<detail::Springs>(c, r, c.spring_damping != T(0) ? detail::Damping::viscous : detail::Damping::none);
 }
 
 // ---- energies -------------------------------------------------------------------------------
@@ -229,6 +244,7 @@ double tet_min_altitude(const double a[3], const double b[3], const double c[3],
 #define PLIANT_INSTANTIATE(T)                                                               \
   template bool packed_corners_pay<T>();                                                    \
   template bool packed_velocities_pay<T>();                                                 \
+  template T rayleigh_factor<T>(T, T, T, T);                                               \
   template void element_forces_linear<T>(const ElementContext<T>&, Range);                  \
   template void element_forces_stvk<T>(const ElementContext<T>&, Range);                    \
   template void element_forces_corotational<T>(const ElementContext<T>&, Range);            \

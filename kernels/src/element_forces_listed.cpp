@@ -7,27 +7,32 @@ namespace pliant {
 namespace {
 
 template <class Model, class T>
-void forces(const ElementContext<T>& c, const std::int32_t* tets, Range r, bool damped) {
-  damped ? detail::listed_pass<Model, T, true>(c, tets, r) : detail::listed_pass<Model, T, false>(c, tets, r);
+void forces(const ElementContext<T>& c, const std::int32_t* tets, Range r, detail::Damping d) {
+  using detail::Damping;
+  switch (d) {
+    case Damping::none: return detail::listed_pass<Model, T, Damping::none>(c, tets, r);
+    case Damping::viscous: return detail::listed_pass<Model, T, Damping::viscous>(c, tets, r);
+    case Damping::rayleigh: return detail::listed_pass<Model, T, Damping::rayleigh>(c, tets, r);
+  }
 }
 
 }  // namespace
 
 template <class T>
 void element_forces_linear_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r) {
-  forces<detail::Linear>(c, tets, r, detail::has_viscosity(c));
+  forces<detail::Linear>(c, tets, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_stvk_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r) {
-  forces<detail::Stvk>(c, tets, r, detail::has_viscosity(c));
+  forces<detail::Stvk>(c, tets, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_corotational_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r) {
-  forces<detail::Corotational>(c, tets, r, detail::has_viscosity(c));
+  forces<detail::Corotational>(c, tets, r, detail::damping_of(c));
 }
 template <class T>
 void element_forces_springs_listed(const ElementContext<T>& c, const std::int32_t* tets, Range r) {
-  forces<detail::Springs>(c, tets, r, c.spring_damping != T(0));
+  forces<detail::Springs>(c, tets, r, c.spring_damping != T(0) ? detail::Damping::viscous : detail::Damping::none);
 }
 
 #define PLIANT_INSTANTIATE(T)                                                                                 \

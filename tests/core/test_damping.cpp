@@ -16,6 +16,7 @@
 
 #include <fmt/format.h>
 
+#include "pliant/level_passes.hpp"
 #include "pliant/scene.hpp"
 #include "pliant/world.hpp"
 
@@ -106,6 +107,28 @@ TEST(RayleighDamping, BetaRunsExactlyAsTheEqualExplicitViscosities) {
                                   dt, steps))
         << model;
     EXPECT_NE(h, hash_after_steps(beam_scene(model, "{}"), dt, steps)) << model;
+  }
+}
+
+TEST(RayleighDamping, TheStepsElementPassesTakeBetaAsOneHookeLaw) {
+  // The step's element context carries beta (ElementContext::rayleigh) where the viscosities are
+  // beta times the moduli, so that the passes add no second Hooke law
+  // (tests/kernels/test_element_forces.cpp, ViscousStress.RayleighViscositiesAsOneHookeLaw*);
+  // viscosities given apart, or only one of them, keep the two.
+  struct Case {
+    const char* damping;
+    double beta;  // s, 0: two Hooke laws
+  };
+  const Case cases[] = {{R"({"stiffness": 1e-3})", 1e-3},
+                        {R"({"stiffness": 1e-3, "mass": 2})", 1e-3},
+                        {R"({"stiffness": 1e-3, "bulk_viscosity": 50})", 0},
+                        {R"({"bulk_viscosity": 50, "shear_viscosity": 20})", 0},
+                        {R"({"mass": 0.7})", 0}};
+  for (const Case& c : cases) {
+    World w;
+    w.add_body(beam_scene("corotational", c.damping).bodies[0]);
+    const ElementContext<double> ec = element_context(w.level<double>(0));
+    EXPECT_NEAR(ec.rayleigh, c.beta, 1e-15 * c.beta) << c.damping;
   }
 }
 

@@ -513,6 +513,78 @@ TEST(ViscousStress, DeformedStateUsesEachModelsStrainRate) {
   EXPECT_GT(std::fabs(lin[1][0] - cor[1][0]) + std::fabs(lin[2][1] - cor[2][1]), 0.1 * std::fabs(lin[1][0]));
 }
 
+// Rayleigh viscosities (phi = beta lambda, psi = beta mu) with ElementContext::rayleigh set, as the
+// engine sets it for damping.stiffness: the passes take the stress as one Hooke law of
+// eps + beta eps_dot. Its viscous part must be the analytic one above (each model's strain rate,
+// phi and psi from beta) on a deformed, turned tet, and the whole force that of the path adding
+// two Hooke laws (rayleigh = 0), to rounding.
+template <class T>
+void check_rayleigh_one_hooke_law() {
+  const double beta = 2e-3;  // s
+  const M3 S = {{{1.06, 0.02, -0.01}, {0.02, 0.97, 0.015}, {-0.01, 0.015, 1.03}}};
+  const double w[3] = {0.4, -0.7, 0.25};
+  const M3 R = rotation_matrix(w);
+  const M3 F = mat_mul(R, S);
+  const M3& G = kVelocityGradient;
+  // Tolerance relative to the largest corner force (the elastic part is 67-256x the viscous one
+  // here), measured: float 2.2e-7 to 1.4e-6 (a few units in the last place), double 4e-16 to 1.1e-15,
+  // both comparisons. A viscous part 1 % off would be 4e-5 to 1.5e-4 of it.
+  const double tol = sizeof(T) == 4 ? 3e-6 : 3e-15;
+  for (Model m : {Model::linear, Model::stvk, Model::corotational}) {
+    OneTet<T> t(kRest, m, 1e5, 0.3);
+    const double lambda = double(t.c.lambda), mu = double(t.c.mu);
+    const double phi = beta * lambda, psi = beta * mu;  // Pa s
+    t.c.bulk_viscosity = T(phi);
+    t.c.shear_viscosity = T(psi);
+    const T rayleigh = rayleigh_factor(t.c.lambda, t.c.mu, t.c.bulk_viscosity, t.c.shear_viscosity);
+    EXPECT_NEAR(double(rayleigh), beta, (sizeof(T) == 4 ? 1e-6 : 1e-15) * beta);
+    for (int a = 0; a < 4; ++a)
+      for (int i = 0; i < 3; ++i)
+        t.x[i][a] = T(0.2 + F[i][0] * kRest[a][0] + F[i][1] * kRest[a][1] + F[i][2] * kRest[a][2]);
+    t.forces();  // v = 0: the elastic force (and the converged corotational rotation)
+    double elastic[4][3];
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) elastic[a][k] = t.force(a, k);
+    set_velocity_gradient(t, G);
+    t.forces();  // rayleigh = 0: two Hooke laws added
+    double two_laws[4][3];
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) two_laws[a][k] = t.force(a, k);
+    t.c.rayleigh = rayleigh;
+    t.forces();  // one Hooke law of eps + beta eps_dot
+    const M3 Fm = m == Model::linear ? M3{{{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}} : m == Model::stvk ? F : R;
+    const auto want = corner_forces_of(mat_mul(Fm, viscous(mat_mul(transposed(Fm), G), phi, psi)));
+    double scale = 0;
+    for (const auto& f : want)
+      for (double x : f) scale = std::max(scale, std::fabs(x));
+    double largest = 0;  // N
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) largest = std::max(largest, std::fabs(t.force(a, k)));
+    EXPECT_GT(scale, 1e-3 * largest);  // the viscous part (1/256 to 1/67 here) is far above the rounding
+    for (int a = 0; a < 4; ++a)
+      for (int k = 0; k < 3; ++k) {
+        EXPECT_NEAR(t.force(a, k) - elastic[a][k], want[a][k], tol * largest)
+            << "model " << int(m) << " corner " << a << " axis " << k;
+        EXPECT_NEAR(t.force(a, k), two_laws[a][k], tol * largest) << "model " << int(m) << " corner " << a << " axis " << k;
+      }
+  }
+}
+
+TEST(ViscousStress, RayleighViscositiesAsOneHookeLawDouble) { check_rayleigh_one_hooke_law<double>(); }
+TEST(ViscousStress, RayleighViscositiesAsOneHookeLawFloat) { check_rayleigh_one_hooke_law<float>(); }
+
+TEST(ViscousStress, RayleighFactorOnlyForViscositiesProportionalToTheModuli) {
+  // lambda, mu of E = 1e5 Pa, nu = 0.3 (Pa); beta in s.
+  const double lambda = 57692.307692307695, mu = 38461.538461538461, beta = 1e-3;
+  EXPECT_NEAR(rayleigh_factor(lambda, mu, beta * lambda, beta * mu), beta, 1e-18);
+  EXPECT_NEAR(rayleigh_factor(float(lambda), float(mu), float(beta * lambda), float(beta * mu)), float(beta), 1e-9);
+  EXPECT_EQ(rayleigh_factor(lambda, mu, 1.0001 * beta * lambda, beta * mu), 0.0);  // phi 0.01 % off
+  EXPECT_EQ(rayleigh_factor(lambda, mu, 40.0, 25.0), 0.0);                          // given apart
+  EXPECT_EQ(rayleigh_factor(lambda, mu, beta * lambda, 0.0), 0.0);                  // bulk only
+  EXPECT_EQ(rayleigh_factor(lambda, mu, 0.0, 0.0), 0.0);                            // undamped
+  EXPECT_NEAR(rayleigh_factor(0.0, mu, 0.0, beta * mu), beta, 1e-18);               // nu = 0: lambda = 0
+}
+
 TEST(ViscousStress, RigidSpinIsNotDampedByStvkAndCorotationalButIsByLinear) {
   // A turned tet spinning rigidly: v_a = W R X_a, W skew, so F = R and F_dot = W R. The
   // Green–Lagrange and corotated strain rates sym(R^T W R) vanish; the Cauchy one, sym(W R),

@@ -110,10 +110,22 @@ struct Strip : test::ElementArrays<T> {
     c.vp = velocities ? vp.data() : nullptr;
   }
 
-  void damp() {
+  // Viscosities phi, psi apart (40, 25 Pa s), or (rayleigh) beta = 1e-4 s times the Lamé moduli
+  // with ElementContext::rayleigh set, as the engine sets it: the passes' one-Hooke-law path.
+  void damp(bool rayleigh = false) {
     c.bulk_viscosity = T(40);
     c.shear_viscosity = T(25);
     c.spring_damping = T(1e-4);
+    if (rayleigh) {
+      c.bulk_viscosity = T(1e-4) * c.lambda;
+      c.shear_viscosity = T(1e-4) * c.mu;
+      c.rayleigh = rayleigh_factor(c.lambda, c.mu, c.bulk_viscosity, c.shear_viscosity);
+      EXPECT_NE(c.rayleigh, T(0));
+    }
+  }
+  enum class Damp { none, viscous, rayleigh };
+  void damp(Damp d) {
+    if (d != Damp::none) damp(d == Damp::rayleigh);
   }
 
   void forces(Model m, Range r) {
@@ -148,14 +160,15 @@ struct Strip : test::ElementArrays<T> {
 using test::same_bits;
 
 template <class T>
-void check_split_invariance(bool damped) {
+using Damp = typename Strip<T>::Damp;
+
+template <class T>
+void check_split_invariance(Damp<T> damped) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> whole(203, 5), single(203, 5), ragged(203, 5);
-    if (damped) {
-      whole.damp();
-      single.damp();
-      ragged.damp();
-    }
+    whole.damp(damped);
+    single.damp(damped);
+    ragged.damp(damped);
     whole.forces(m, Range{0, whole.nt});
     single.forces_in_pieces(m, {1});
     ragged.forces_in_pieces(m, {7, 13, 1, 32, 5, 64, 3});
@@ -173,7 +186,7 @@ void check_split_invariance(bool damped) {
     EXPECT_GT(max_force, 0.0);
     // A partial batch does not write past the end of its range.
     Strip<T> part(203, 5);
-    if (damped) part.damp();
+    part.damp(damped);
     part.forces(m, Range{10, 17});
     for (int q = 0; q < 12; ++q) {
       for (std::size_t t = 0; t < part.nt; ++t) {
@@ -188,12 +201,10 @@ void check_split_invariance(bool damped) {
 }
 
 TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitFloat) {
-  check_split_invariance<float>(false);
-  check_split_invariance<float>(true);
+  for (auto d : {Damp<float>::none, Damp<float>::viscous, Damp<float>::rayleigh}) check_split_invariance<float>(d);
 }
 TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
-  check_split_invariance<double>(false);
-  check_split_invariance<double>(true);
+  for (auto d : {Damp<double>::none, Damp<double>::viscous, Damp<double>::rayleigh}) check_split_invariance<double>(d);
 }
 
 // The passes over listed tets (a multiresolution level's stepped tets, scattered over its mesh):
@@ -205,13 +216,11 @@ TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
 // forces_listed: the corner forces stored by list position (ElementContext::listed_corner_forces,
 // as a listed level of the step keeps them), each the bits of its tet's in the range pass.
 template <class T>
-void check_listed(bool damped, bool packed, bool rest_listed = false, bool forces_listed = false) {
+void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool forces_listed = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> whole(203, 5), listed(203, 5);
-    if (damped) {
-      whole.damp();
-      listed.damp();
-    }
+    whole.damp(damped);
+    listed.damp(damped);
     if (packed) listed.pack();
     whole.forces(m, Range{0, whole.nt});
     std::vector<std::int32_t> ids;
@@ -250,43 +259,33 @@ void check_listed(bool damped, bool packed, bool rest_listed = false, bool force
   }
 }
 
-TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassFloat) {
-  check_listed<float>(false, false);
-  check_listed<float>(true, false);
-  check_listed<float>(true, true);
+template <class T>
+void check_listed_every_damping(bool rest_listed, bool forces_listed) {
+  for (auto d : {Damp<T>::none, Damp<T>::viscous, Damp<T>::rayleigh})
+    for (bool packed : {false, true}) check_listed<T>(d, packed, rest_listed, forces_listed);
 }
-TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassDouble) {
-  check_listed<double>(false, false);
-  check_listed<double>(true, false);
-  check_listed<double>(true, true);
-}
+
+TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassFloat) { check_listed_every_damping<float>(false, false); }
+TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassDouble) { check_listed_every_damping<double>(false, false); }
 TEST(KernelBatches, ListedPassesWithRestDataInListOrderGiveTheSameBits) {
-  for (bool damped : {false, true})
-    for (bool packed : {false, true}) {
-      check_listed<float>(damped, packed, true);
-      check_listed<double>(damped, packed, true);
-    }
+  check_listed_every_damping<float>(true, false);
+  check_listed_every_damping<double>(true, false);
 }
 
 TEST(KernelBatches, ListedPassesStoringForcesByListPositionGiveTheSameBits) {
-  for (bool damped : {false, true})
-    for (bool packed : {false, true}) {
-      check_listed<float>(damped, packed, true, true);
-      check_listed<double>(damped, packed, true, true);
-    }
+  check_listed_every_damping<float>(true, true);
+  check_listed_every_damping<double>(true, true);
 }
 
 // Corner positions (and, with velocities, corner velocities) read from the interleaved copies
 // (one load per node and a transpose with AVX-512 and AVX2) must be the values the gathers from
 // x[3][n] and v[3][n] read: the same bits out, any split.
 template <class T>
-void check_packed_positions(bool damped, bool velocities = false) {
+void check_packed_positions(Damp<T> damped, bool velocities = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> soa(203, 5), packed(203, 5);
-    if (damped) {
-      soa.damp();
-      packed.damp();
-    }
+    soa.damp(damped);
+    packed.damp(damped);
     packed.pack(velocities);
     soa.forces(m, Range{0, soa.nt});
     packed.forces_in_pieces(m, {7, 13, 1, 32, 5, 64, 3});
@@ -297,31 +296,37 @@ void check_packed_positions(bool damped, bool velocities = false) {
 }
 
 TEST(KernelBatches, PackedPositionsGiveTheBitsOfTheGathersFloat) {
-  check_packed_positions<float>(false);
-  check_packed_positions<float>(true);
+  for (auto d : {Damp<float>::none, Damp<float>::viscous, Damp<float>::rayleigh}) check_packed_positions<float>(d);
 }
 TEST(KernelBatches, PackedPositionsGiveTheBitsOfTheGathersDouble) {
-  check_packed_positions<double>(false);
-  check_packed_positions<double>(true);
+  for (auto d : {Damp<double>::none, Damp<double>::viscous, Damp<double>::rayleigh}) check_packed_positions<double>(d);
 }
 
-TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersFloat) { check_packed_positions<float>(true, true); }
-TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersDouble) { check_packed_positions<double>(true, true); }
+TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersFloat) {
+  check_packed_positions<float>(Damp<float>::viscous, true);
+  check_packed_positions<float>(Damp<float>::rayleigh, true);
+}
+TEST(KernelBatches, PackedVelocitiesGiveTheBitsOfTheGathersDouble) {
+  check_packed_positions<double>(Damp<double>::viscous, true);
+  check_packed_positions<double>(Damp<double>::rayleigh, true);
+}
 
 // The damped passes do read the velocities' copy when they are given one (else the test above
 // would pass with it ignored): a copy whose velocities differ from v changes the forces.
 TEST(KernelBatches, DampedPassesReadThePackedVelocities) {
-  for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
-    Strip<float> soa(40, 5), packed(40, 5);
-    soa.damp();
-    packed.damp();
-    packed.pack(true);
-    // x velocity + n x 0.1 m/s in the copy only (not uniform: a uniform velocity is a rigid
-    // translation, which the viscous stress rightly ignores)
-    for (std::size_t n = 0; n < packed.nn; ++n) packed.vp[4 * n] += 0.1f * float(n);
-    soa.forces(m, Range{0, soa.nt});
-    packed.forces(m, Range{0, packed.nt});
-    EXPECT_FALSE(same_bits(soa.cf[0], packed.cf[0])) << "model " << int(m);
+  for (bool rayleigh : {false, true}) {
+    for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
+      Strip<float> soa(40, 5), packed(40, 5);
+      soa.damp(rayleigh);
+      packed.damp(rayleigh);
+      packed.pack(true);
+      // x velocity + n x 0.1 m/s in the copy only (not uniform: a uniform velocity is a rigid
+      // translation, which the viscous stress rightly ignores)
+      for (std::size_t n = 0; n < packed.nn; ++n) packed.vp[4 * n] += 0.1f * float(n);
+      soa.forces(m, Range{0, soa.nt});
+      packed.forces(m, Range{0, packed.nt});
+      EXPECT_FALSE(same_bits(soa.cf[0], packed.cf[0])) << "model " << int(m) << (rayleigh ? " rayleigh" : "");
+    }
   }
 }
 

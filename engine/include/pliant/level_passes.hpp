@@ -60,6 +60,7 @@ ElementContext<T> element_context(const Level<T>& L) {
   c.mu = L.mu;
   c.bulk_viscosity = L.bulk_viscosity;
   c.shear_viscosity = L.shear_viscosity;
+  c.rayleigh = rayleigh_factor(L.lambda, L.mu, L.bulk_viscosity, L.shear_viscosity);
   c.young = L.young;
   c.spring_damping = L.stiffness_damping;
   for (int q = 0; q < 12; ++q) c.corner_force[q] = const_cast<T*>(L.corner_force[q].data());

@@ -37,7 +37,7 @@ template <class T>
 RestStiffness<T>::RestStiffness(Executor& exec, Level<T>& L) : exec_(exec), L_(L), springs_(L.model == ForceModel::springs) {
   const std::size_t nn = L.node_count;
   ec_ = element_context(L);
-  ec_.bulk_viscosity = ec_.shear_viscosity = ec_.spring_damping = T(0);
+  ec_.bulk_viscosity = ec_.shear_viscosity = ec_.spring_damping = ec_.rayleigh = T(0);
   for (auto& r : ec_.rotation) r = nullptr;
   for (int k = 0; k < 3; ++k) {
     x_[k].assign(nn, T(0));

@@ -31,6 +31,10 @@ struct ElementContext {
   // Material (one per level): Lamé coefficients (Pa) and viscous coefficients (Pa*s).
   T lambda = 0, mu = 0;
   T bulk_viscosity = 0, shear_viscosity = 0;  // phi, psi: phi tr(eps_dot) I + 2 psi eps_dot
+  // Rayleigh stiffness damping: beta (s) when phi = beta lambda and psi = beta mu
+  // (rayleigh_factor, element_forces.hpp), else 0. Non-zero, the continuum passes take the stress
+  // as one Hooke law of eps + beta eps_dot instead of two added (the same value, fewer flops).
+  T rayleigh = 0;
   // Springs: Young's modulus (Pa) and the Rayleigh factor beta (s) for the edge dashpots.
   T young = 0, spring_damping = 0;
   // Output: the force on each corner, corner_force[3*c + k][tet] (N).

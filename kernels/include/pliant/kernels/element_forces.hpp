@@ -8,7 +8,7 @@
 //   springs       the 6 edges of every tet as springs k = E V / L^2 (van Gelder-style), summed
 //                 over the tets sharing an edge; dashpots beta k along each edge
 // and f_c = -V P grad(phi_c). Viscous stress (thesis ch.2 §4) is added to sigma (or S) with the
-// strain rate of the same measure.
+// strain rate of the same measure (with Rayleigh viscosities, as one Hooke law of eps + beta eps_dot).
 #pragma once
 #include <cstdint>
 
@@ -29,6 +29,13 @@ template <class T> bool packed_corners_pay();
 // positions packed only, Zen 3); false with AVX-512 (float 0.93-1.02x on a Xeon, 2026-11-25,
 // before the copy fix) and SSE builds. docs/performance.md.
 template <class T> bool packed_velocities_pay();
+
+// The Rayleigh factor beta (s) of viscosities phi = beta lambda, psi = beta mu (Pa s; Lamé moduli in
+// Pa): psi / mu when phi equals beta lambda to 8 units in the last place of T, else 0 (not
+// proportional, or psi = 0). For ElementContext::rayleigh: the engine's Rayleigh stiffness damping
+// (damping.stiffness) gives such viscosities, and so do explicit ones in that proportion (the same
+// values, so the same path and bits).
+template <class T> T rayleigh_factor(T lambda, T mu, T phi, T psi);
 
 template <class T> void element_forces_linear(const ElementContext<T>& c, Range tets);
 template <class T> void element_forces_stvk(const ElementContext<T>& c, Range tets);
