@@ -6,9 +6,10 @@
 // refinement (until every lane has converged); damping terms are compiled in only when a viscous
 // coefficient is non-zero (Damping below), so undamped runs do not read velocities.
 //
-// Included by element_forces.cpp (the passes over ranges) and element_forces_listed.cpp (over
-// lists): one translation unit each, so that each keeps the inlining budget the range passes
-// had alone (in one unit, GCC 12 left the small matrix helpers out of line: slower).
+// Included by element_forces.cpp (the passes over ranges), element_forces_listed.cpp (over
+// lists) and element_forces_rayleigh.cpp (the rayleigh passes of both): one translation unit each,
+// so that each keeps the inlining budget the range passes had alone (in one unit, GCC 12 left the
+// small matrix helpers out of line: slower).
 #pragma once
 #include <algorithm>
 #include <cstdint>
@@ -241,5 +242,14 @@ void listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r) {
   for (std::size_t t = r.begin; t < r.end; t += W)
     Model::template batch<T, Damp>(c, ListedTets<T>(ids, t, int(std::min<std::size_t>(W, r.end - t)), c.listed_corner_forces));
 }
+
+// The rayleigh passes live in a translation unit of their own (element_forces_rayleigh.cpp):
+// with them instantiated beside the others, GCC 12 left hooke, mul_tn, corner_gradient and
+// quat_to_matrix out of line in both units, and every pass, undamped too, ran 13-17 % slower
+// (`pliant bench --scenes-only`, 2026-11-28). Models: Linear, Stvk, Corotational.
+template <class Model, class T>
+void rayleigh_range_pass(const ElementContext<T>& c, Range r);
+template <class Model, class T>
+void rayleigh_listed_pass(const ElementContext<T>& c, const std::int32_t* ids, Range r);
 
 }  // namespace pliant::detail

@@ -40,7 +40,7 @@ void forces(const ElementContext<T>& c, Range r, detail::Damping d) {
   switch (d) {
     case Damping::none: return detail::range_pass<Model, T, Damping::none>(c, r);
     case Damping::viscous: return detail::range_pass<Model, T, Damping::viscous>(c, r);
-    case Damping::rayleigh: return detail::range_pass<Model, T, Damping::rayleigh>(c, r);
+    case Damping::rayleigh: return detail::rayleigh_range_pass<Model, T>(c, r);
   }
 }
 

@@ -12,7 +12,7 @@ void forces(const ElementContext<T>& c, const std::int32_t* tets, Range r, detai
   switch (d) {
     case Damping::none: return detail::listed_pass<Model, T, Damping::none>(c, tets, r);
     case Damping::viscous: return detail::listed_pass<Model, T, Damping::viscous>(c, tets, r);
-    case Damping::rayleigh: return detail::listed_pass<Model, T, Damping::rayleigh>(c, tets, r);
+    case Damping::rayleigh: return detail::rayleigh_listed_pass<Model, T>(c, tets, r);
   }
 }
 
