@@ -159,17 +159,46 @@ double since(Clock::time_point& t) {
 }
 void print(const char* what, const Stat& s) { std::printf("  %-34s %7.2f  [%6.2f - %6.2f]\n", what, s.med, s.lo, s.hi); }
 
-// 1: packed against gathered corners, element pass (+ pack) and the fused node pass after it.
-template <class T>
-void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damped, int samples) {
+// Times `before` then `after` back to back, `samples` times after 3 untimed rounds: the seconds of
+// each and their ratio after / before, pair by pair (alternated, so a busy host slows both alike).
+struct Pairs {
+  std::vector<double> before, after, ratio;
+};
+template <class Before, class After>
+Pairs time_pairs(int samples, const Before& before, const After& after) {
+  Pairs out;
+  for (int i = 0; i < samples + 3; ++i) {
+    auto t = Clock::now();
+    before();
+    const double a = since(t);
+    after();
+    const double b = since(t);
+    if (i < 3) continue;
+    out.before.push_back(a);
+    out.after.push_back(b);
+    out.ratio.push_back(b / a);
+  }
+  return out;
+}
+
+// A corotational box world of `size`, damped by Rayleigh beta (s; 0: undamped; the default
+// scene's is 1e-4), after `steps` steps (a deformed, moving state).
+World damped_box_world(const BoxSize& size, Precision p, int threads, double beta, int steps) {
   BodyDef b = box_body(ForceModel::corotational, size.cells);
-  if (damped) b.material.damping.stiffness = 1e-4;  // as the default scene
+  b.material.damping.stiffness = beta;
   WorldDef wd;
   wd.precision = p;
   wd.threads = threads;
   World w(wd);
   w.add_body(b, box_mesh(size.cells, Order::grid));
-  for (int i = 0; i < 3; ++i) w.step();
+  for (int i = 0; i < steps; ++i) w.step();
+  return w;
+}
+
+// 1: packed against gathered corners, element pass (+ pack) and the fused node pass after it.
+template <class T>
+void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damped, int samples) {
+  World w = damped_box_world(size, p, threads, damped ? 1e-4 : 0.0, 3);
   Level<T>& L = w.level<T>(0);
   Executor ex(threads);
   const std::size_t nt = L.tet_count, nn = L.node_count;
@@ -252,14 +281,7 @@ void packed_vs_gathered(const BoxSize& size, Precision p, int threads, bool damp
 // 2: the prototype of corner forces in incidence order (float, 1 thread, undamped).
 template <class T>
 void listed_vs_range(const BoxSize& size, Precision p, bool damped, int samples) {
-  BodyDef b = box_body(ForceModel::corotational, size.cells);
-  if (damped) b.material.damping.stiffness = 1e-4;  // as the default scene
-  WorldDef wd;
-  wd.precision = p;
-  wd.threads = 1;
-  World w(wd);
-  w.add_body(b, box_mesh(size.cells, Order::grid));
-  for (int i = 0; i < 3; ++i) w.step();
+  World w = damped_box_world(size, p, 1, damped ? 1e-4 : 0.0, 3);
   Level<T>& L = w.level<T>(0);
   const ElementContext<T> ec = element_context(L);  // corners gathered, as listed levels read them
   std::vector<std::int32_t> ids;
@@ -536,41 +558,23 @@ bool entries_ab(const BoxSize& size, Precision p, int threads, int samples) {
   auto nodes = [&](const GatherContext<T>& gc) {
     ex.parallel_all(nn, pass_grain(nn, kNodeGrain), [&](Range r) { return gather_integrate_symplectic_euler(gc, ic, r); });
   };
-  std::vector<double> tt, to, ratio;
-  for (int i = 0; i < samples + 3; ++i) {
-    auto t = Clock::now();
-    nodes(table);
-    const double a = since(t);
-    nodes(offsets);
-    const double b = since(t);
-    if (i < 3) continue;
-    tt.push_back(a);
-    to.push_back(b);
-    ratio.push_back(b / a);
-  }
+  const Pairs pairs = time_pairs(samples, [&] { nodes(table); }, [&] { nodes(offsets); });
   const double k = 1e9 / double(nt);
   std::printf("%s tets, %s, %d thread(s): gather + integrate, ns/tet, median [min - max] of %d%s\n", size.label,
               p == Precision::float32 ? "float" : "double", threads, samples, same ? "" : "  NODE FORCES DIFFER");
-  print("entries looked up (before)", stat(tt, k));
-  print("entries as offsets, pairs", stat(to, k));
-  print("  ratio offsets / table (per pair)", stat(ratio, 1.0));
+  print("entries looked up (before)", stat(pairs.before, k));
+  print("entries as offsets, pairs", stat(pairs.after, k));
+  print("  ratio offsets / table (per pair)", stat(pairs.ratio, 1.0));
   std::fflush(stdout);
   return same;
 }
 // 5: Rayleigh damping as one Hooke law against two added (the element pass alone).
 template <class T>
 void rayleigh_ab(const BoxSize& size, Precision p, int threads, int samples) {
-  BodyDef b = box_body(ForceModel::corotational, size.cells);
-  b.material.damping.stiffness = 1e-4;  // s, as the default scene
-  WorldDef wd;
-  wd.precision = p;
-  wd.threads = threads;
-  World w(wd);
-  w.add_body(b, box_mesh(size.cells, Order::grid));
   // A deformed, moving state: 100 steps of sag. After 3 (as the other modes) the strains are
   // ~1e-5, near float's rounding of R^T F - I (1.2e-7), and the two ways' rounding differs by up to
   // 1 % of the forces (0.0008-0.014 measured); after 100, 1e-5 (double 2e-14): rounding.
-  for (int i = 0; i < 100; ++i) w.step();
+  World w = damped_box_world(size, p, threads, 1e-4, 100);
   Level<T>& L = w.level<T>(0);
   Executor ex(threads);
   const std::size_t nt = L.tet_count, nn = L.node_count;
@@ -609,26 +613,15 @@ void rayleigh_ab(const BoxSize& size, Precision p, int threads, int samples) {
   difference(again, largest);
   from_saved_rotations(one);
   difference(diff, largest);
-  std::vector<double> tt, to, ratio;
-  for (int i = 0; i < samples + 3; ++i) {
-    auto t = Clock::now();
-    element(two);
-    const double a = since(t);
-    element(one);
-    const double c = since(t);
-    if (i < 3) continue;
-    tt.push_back(a);
-    to.push_back(c);
-    ratio.push_back(c / a);
-  }
+  const Pairs pairs = time_pairs(samples, [&] { element(two); }, [&] { element(one); });
   const double k = 1e9 / double(nt);
   std::printf("%s tets, %s, %d thread(s), rayleigh %s: element pass ns/tet, median [min - max] of %d; forces differ by %.2g "
               "of the largest (a pass repeated: %.2g)\n",
               size.label, p == Precision::float32 ? "float" : "double", threads, one.rayleigh != T(0) ? "on" : "NOT SET",
               samples, diff / largest, again / largest);
-  print("two Hooke laws (before)", stat(tt, k));
-  print("one Hooke law", stat(to, k));
-  print("  ratio one / two (per pair)", stat(ratio, 1.0));
+  print("two Hooke laws (before)", stat(pairs.before, k));
+  print("one Hooke law", stat(pairs.after, k));
+  print("  ratio one / two (per pair)", stat(pairs.ratio, 1.0));
   std::fflush(stdout);
 }
 }  // namespace
