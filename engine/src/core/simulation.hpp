@@ -167,6 +167,10 @@ struct LevelJobState {
   // level's mesh cost a quarter to a third of the listed pass (perf/layout_ab listed). The
   // level's own Level::corner_force is then not written for its stepped tets.
   CornerForceArrays<T> listed_corner_force;
+  // The static obstacles against this level, one context each, refreshed on every tick whose
+  // window ends for it: its node passes resolve them over each range right after integrating it
+  // (run_gather_integrate, run_integrate), so they cost no phase or region of their own.
+  std::vector<HalfSpaceContext<T>> obstacles;
 };
 
 // The phases of a tick, in the order they run (Simulation::step): A ghost refresh, the positions
@@ -190,13 +194,6 @@ template <class T>
 struct NodePiece {
   const LevelJobState<T>* job = nullptr;
   std::size_t first = 0, count = 0;
-};
-
-// A node piece of one obstacle's phase: the obstacle's context for the piece's level.
-template <class T>
-struct ObstaclePiece {
-  const HalfSpaceContext<T>* ctx = nullptr;
-  std::size_t first = 0;
 };
 
 // A level's positions and velocities with its ghosts where their sources are now (a level's own
@@ -327,10 +324,6 @@ class Simulation {
   // largest tick, then stay).
   std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;
   std::array<std::vector<Executor::PredicateSegment>, kTickPhases> tick_predicates_;
-  std::vector<HalfSpaceContext<T>> obstacle_ctx_;  // [obstacle * jobs + job]
-  std::vector<ObstaclePiece<T>> obstacle_pieces_;   // the node pieces of each obstacle's phase
-  std::vector<Executor::Segment> obstacle_segments_;
-  std::vector<Executor::Phase> obstacle_phases_;  // one per obstacle
   std::vector<std::size_t> job_of_body_;  // first job of each body (its levels follow)
 };
 
