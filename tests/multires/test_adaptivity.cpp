@@ -315,6 +315,55 @@ TEST(Adaptivity, ACapOfOneKeepsAThreeLevelBodyOffItsFinestLevelUntilLifted) {
   EXPECT_GT(w.level_info(0, 2).stepped_tets, 0u);
 }
 
+TEST(Adaptivity, TheDeformationMonitorChecksAsOftenAsTheFinestSteppedLevelMoves) {
+  // World's deformation monitor (TimeStepDef::adapt) measures the stepped tets every 1 to 16 steps.
+  // A 3-level bar capped at its coarsest level moves only once per window of that level: it is
+  // measured every 16 of those windows, not every 16 fine steps (then 12% of the 50k-tet organ's
+  // stepping on its coarser levels, for positions that had not moved). Lifted, the finest level
+  // steps again and the checks come within 16 fine steps at once, not at the end of the long
+  // interval already planned.
+  World w(no_gravity());
+  BodyDef b = pushed_bar(0.03, false);
+  b.multiresolution.levels = 3;
+  w.add_body(b);
+  ASSERT_EQ(w.level_count(0), 3);
+  w.set_adapt_cap(0, 0);
+  for (int i = 0; i < 200; ++i) w.step();  // the first checks come every 1, 2, 4 ... steps
+  ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
+  ASSERT_EQ(w.level_info(0, 2).stepped_tets, 0u);
+  const int coarse = w.level_info(0, 0).period;
+  ASSERT_GE(coarse, 2);  // fine ticks per coarse step (one sub-step per step here)
+  ASSERT_EQ(w.substeps(), 1);
+  const std::int64_t steps = 64 * 16 * coarse, before = w.stiffness_checks();
+  for (std::int64_t i = 0; i < steps; ++i) w.step();
+  const std::int64_t capped = w.stiffness_checks() - before;
+  EXPECT_LE(capped, steps / (16 * coarse) + 1) << "period " << coarse;  // 64 (at every 16 fine steps: 64 x period)
+  EXPECT_GE(capped, steps / (16 * coarse) - 1) << "period " << coarse;
+
+  // Lifted right after a check, and every node split at once: from the step where the finest level
+  // steps again, no 16 steps in a row go without a check (the interval planned while capped was
+  // 16 coarse windows, 32 fine steps here).
+  for (std::int64_t c = w.stiffness_checks(); w.stiffness_checks() == c;) w.step();
+  w.set_adapt_cap(0, 2);
+  w.force_level(0, 2);
+  std::int64_t last_check = w.steps(), checks = w.stiffness_checks(), longest = 0;
+  bool fine = false;
+  for (int i = 0; i < 400; ++i) {
+    w.step();
+    if (w.stiffness_checks() > checks) {
+      checks = w.stiffness_checks();
+      last_check = w.steps();
+    }
+    if (!fine && w.level_info(0, 2).stepped_tets > 0) {
+      fine = true;
+      last_check = std::max(last_check, w.steps() - 1);  // counted from its first step
+    }
+    if (fine) longest = std::max(longest, w.steps() - last_check);
+  }
+  ASSERT_TRUE(fine) << "the finest level never stepped";
+  EXPECT_LE(longest, 16);
+}
+
 TEST(Adaptivity, ASplitBudgetSpreadsARegionsSplitsOverDecisions) {
   // The bent bar of the test above, unlimited and with at most one split per decision
   // (World::set_adapt_split_budget, which the real-time controller sets to 2): unlimited, some

@@ -108,6 +108,9 @@ class World {
   std::int64_t adapted_steps() const;
   double stiffness_ratio() const;
   double max_stiffness_ratio() const;
+  // How many times the ratio was measured (every 1 to 16 moves of the finest level that steps a
+  // tet; every step while it is high or sub-stepped).
+  std::int64_t stiffness_checks() const;
   Vec3d gravity() const;           // m/s^2
   const std::vector<ObstacleDef>& obstacles() const;  // WorldDef::obstacles, normals of unit length
   Precision precision() const;

@@ -263,6 +263,16 @@ class Simulation {
   bool step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index);
   std::int64_t ticks() const { return tick_; }
   std::size_t last_tick_tets() const { return last_tick_tets_; }  // tets computed by the last tick
+  // The period (ticks) of the finest level that steps a tet, 1 if none does: the stepped tets'
+  // corners move only at their level's window boundaries (integration, obstacles, tools and
+  // prescribed motion at its end; ghosts refreshed at its start), so no stepped tet's deformation
+  // changes more often than this (World's deformation monitor checks no more often).
+  int finest_stepped_period() const {
+    int p = 0;
+    for (const LevelJob& j : jobs_)
+      if (j.items > 0 && (p == 0 || j.period < p)) p = j.period;
+    return p > 0 ? p : 1;
+  }
   std::size_t pass_nodes(int body, int level) const;  // nodes the level's node passes run over
   bool steps_listed(int body, int level) const;        // its element pass runs from a list
   std::size_t gather_entries(int body, int level) const;  // corner forces its gather sums per step
