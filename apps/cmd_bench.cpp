@@ -68,6 +68,7 @@ nlohmann::json to_json(const perf::Record& r) {
   j["realtime_factor"] = n(r.realtime_factor);
   j["samples"] = r.samples;
   j["others_busy"] = n(r.others_busy);
+  j["round_trip_ns"] = n(r.round_trip_ns);
   j["value"] = n(r.value);
   j["unit"] = s(r.unit);
   j["note"] = s(r.note);

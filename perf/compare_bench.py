@@ -225,6 +225,15 @@ def compare(old_paths, new_paths, args, out):
         if busy:
             w(f"- **Load, {which}**: other processes used {statistics.median(busy):.2f} core(s) in the median case "
               f"(max {max(busy):.2f}) while its cases ran (`others_busy`)\n")
+        # Multi-thread cases: how far apart the host had put the threads (pliant bench's
+        # round_trip_ns, absent from bench CSVs before 2026-11-28).
+        trips = [num(cell(row, "round_trip_ns")) for r in runs for row in r.values()
+                 if cell(row, "kind") in ("step", "scene")]
+        trips = [t for t in trips if t is not None]
+        if trips:
+            w(f"- **Cache-line round trip, {which}**: {min(trips):.0f}..{max(trips):.0f} ns over its cases on 2+ "
+              f"threads, median {statistics.median(trips):.0f} (`round_trip_ns`: their figures compare only at like "
+              f"round trips)\n")
     for n in args.scene_differs or []:
         w(f"- **Note**: scenes/{n}.json differs between {args.old_label} and {args.new_label}: the scene/{n} records "
           f"compare different scenes (each version runs its own)\n")

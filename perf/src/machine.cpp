@@ -297,8 +297,42 @@ PeakPoint measure_peak(bool is_double, int threads, bool fma, double seconds) {
   return p;
 }
 
+double measure_round_trip(int round_trips) {
+  // The line each thread waits on: the caller writes odd values, the other thread even ones.
+  struct alignas(64) Line {
+    std::atomic<int> value{0};
+  } line;
+  std::atomic<bool> ready{false};
+  std::thread other([&] {
+    ready.store(true, std::memory_order_release);
+    for (int i = 0; i < round_trips; ++i) {
+      while (line.value.load(std::memory_order_acquire) != 2 * i + 1) {
+      }
+      line.value.store(2 * i + 2, std::memory_order_release);
+    }
+  });
+  while (!ready.load(std::memory_order_acquire)) {
+  }
+  const auto t0 = Clock::now();
+  for (int i = 0; i < round_trips; ++i) {
+    line.value.store(2 * i + 1, std::memory_order_release);
+    while (line.value.load(std::memory_order_acquire) != 2 * i + 2) {
+    }
+  }
+  const double s = seconds_since(t0);
+  other.join();
+  return s / double(round_trips) * 1e9;
+}
+
 MachineLimits measure_machine_limits(const LimitOptions& o) {
   MachineLimits m;
+  if (std::find_if(o.threads.begin(), o.threads.end(), [](int t) { return t >= 2; }) != o.threads.end() &&
+      std::thread::hardware_concurrency() >= 2) {
+    std::vector<double> runs;
+    for (int i = 0; i < 5; ++i) runs.push_back(measure_round_trip(20000));  // about 10 ms each
+    std::sort(runs.begin(), runs.end());
+    m.round_trip_ns = runs[runs.size() / 2];
+  }
   for (int threads : o.threads) {
     for (double mib : o.footprints_mib) {
       TriadPoint p;

@@ -132,11 +132,20 @@ void box_parts(Suite& s, World& w, const std::string& size, Order order, bool no
   }
 }
 
+// Record::round_trip_ns of a case on `threads` threads: call before it, then again after it with
+// the first value (the larger is kept).
+double round_trip_for(int threads, double before = 0) {
+  if (threads < 2) return kNone;
+  return std::max(before, measure_round_trip(20000));
+}
+
 void whole_step(Suite& s, World& w, const std::string& size, Order order, int threads,
                 const std::string& prefix = "") {
   std::vector<double> samples;
+  const double round_trip = round_trip_for(threads);
   const double busy = s.measured([&] { samples = time_calls([&] { w.step(); }, s.timing); });
   Record r = base_record(prefix + "step", "step", w, threads);
+  r.round_trip_ns = round_trip_for(threads, round_trip);
   r.size = size;
   r.order = to_string(order);
   r.others_busy = busy;
@@ -160,7 +169,9 @@ void scene_case(Suite& s, const std::string& name, const SceneDef& scene, int th
     t.min_samples = steps;
     t.warmup = 5;
     std::vector<double> samples;
+    const double round_trip = round_trip_for(threads);
     r.others_busy = s.measured([&] { samples = time_calls([&] { w.step(); }, t); });
+    r.round_trip_ns = round_trip_for(threads, round_trip);
     PassCost c = pass_cost(w, 0, Pass::step);
     for (std::size_t b = 1; b < w.body_count(); ++b) {
       const PassCost cb = pass_cost(w, BodyId(b), Pass::step);
@@ -200,7 +211,9 @@ void multires_case(Suite& s, const std::string& name, SceneDef scene, int thread
     std::vector<double> samples;
     const double before = w.tick_stats().tet_updates();
     const std::int64_t ticks_before = w.tick_stats().ticks();
+    const double round_trip = round_trip_for(threads);
     r.others_busy = s.measured([&] { samples = time_calls([&] { w.step(); }, t); });
+    r.round_trip_ns = round_trip_for(threads, round_trip);
     const Stats st = stats_of(samples);
     const double tets = w.tick_stats().tet_updates() - before;
     const double ticks = double(w.tick_stats().ticks() - ticks_before);
@@ -394,6 +407,17 @@ void run_suite(const SuiteOptions& o, const std::function<void(const Record&)>& 
     r.note = "a = b + s c over 3 arrays of doubles, best of samples, counted as 24 B per element";
     s.publish(r);
   }
+  if (s.limits.round_trip_ns > 0) {
+    Record r;
+    r.case_name = "machine/round_trip";
+    r.kind = "machine";
+    r.threads = 2;
+    r.value = s.limits.round_trip_ns;
+    r.unit = "ns";
+    r.others_busy = busy;
+    r.note = "one cache line to another thread and back, median of 5 x 20 000 (what a barrier and a line across two threads' cut cost)";
+    s.publish(r);
+  }
   for (const auto& p : s.limits.peak) {
     Record r;
     r.case_name = p.fma ? "machine/peak_fma" : "machine/peak_mul_add";
@@ -508,7 +532,8 @@ void run_suite(const SuiteOptions& o, const std::function<void(const Record&)>& 
 std::string csv_header() {
   return "case,kind,model,precision,order,size,tets,nodes,threads,ns_per_tet,mtets_per_s,bytes_per_tet,gb_per_s,"
          "flops_per_tet,gflop_per_s,footprint_mib,roof_gb_per_s,roof_gflop_per_s,roof_ns_per_tet,roofline_fraction,"
-         "bound,steps_per_s,step_p50_us,step_p99_us,step_max_us,realtime_factor,samples,others_busy,value,unit,note";
+         "bound,steps_per_s,step_p50_us,step_p99_us,step_max_us,realtime_factor,samples,others_busy,value,unit,note,"
+         "round_trip_ns";
 }
 
 std::string csv_row(const Record& r) {
@@ -518,13 +543,13 @@ std::string csv_row(const Record& r) {
     return out + "\"";
   };
   auto n = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.6g}", v); };
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                      r.case_name, r.kind, r.model, r.precision, r.order, r.size, r.tets, r.nodes, r.threads,
                      n(r.ns_per_tet), n(r.mtets_per_s), n(r.bytes_per_tet), n(r.gb_per_s), n(r.flops_per_tet),
                      n(r.gflop_per_s), n(r.footprint_mib), n(r.roof_gb_per_s), n(r.roof_gflop_per_s),
                      n(r.roof_ns_per_tet), n(r.roofline_fraction), r.bound, n(r.steps_per_s), n(r.step_p50_us),
                      n(r.step_p99_us), n(r.step_max_us), n(r.realtime_factor), r.samples, n(r.others_busy), n(r.value),
-                     r.unit, q(r.note));
+                     r.unit, q(r.note), n(r.round_trip_ns));
 }
 
 std::string format_table(const std::vector<Record>& rs) {
@@ -534,13 +559,15 @@ std::string format_table(const std::vector<Record>& rs) {
     if (r.kind == "machine" && r.case_name != "machine/info") {
       if (r.case_name == "machine/triad")
         out << fmt::format("  triad {:>8.1f} MiB {} thread(s): {:7.1f} GB/s\n", r.footprint_mib, r.threads, r.value);
+      else if (r.case_name == "machine/round_trip")
+        out << fmt::format("  cache line round trip between 2 threads: {:.0f} ns\n", r.value);
       else
         out << fmt::format("  {:<21} {:<6} {} thread(s): {:7.1f} GFLOP/s ({})\n", r.case_name.substr(8), r.precision,
                            r.threads, r.value, r.note);
     }
-  out << fmt::format("\n{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5}\n",
+  out << fmt::format("\n{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
                      "case", "model", "prec", "order", "tets", "thr", "ns/tet", "Mtet/s", "B/tet", "GB/s", "GF/s",
-                     "roof%", "p50 us", "p99 us", "max us", "busy");
+                     "roof%", "p50 us", "p99 us", "max us", "busy", "rt ns");
   for (const auto& r : rs) {
     if (r.kind == "machine" || r.kind == "summary") continue;
     if (std::isnan(r.ns_per_tet)) {
@@ -548,12 +575,12 @@ std::string format_table(const std::vector<Record>& rs) {
                          r.tets, r.threads, r.note);
       continue;
     }
-    out << fmt::format("{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5}\n",
+    out << fmt::format("{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
                        r.case_name, r.model, r.precision, r.order, r.tets, r.threads, num(r.ns_per_tet, "{:.2f}"),
                        num(r.mtets_per_s, "{:.1f}"), num(r.bytes_per_tet, "{:.0f}"), num(r.gb_per_s, "{:.1f}"),
                        num(r.gflop_per_s, "{:.1f}"), num(100 * r.roofline_fraction, "{:.0f}"),
                        num(r.step_p50_us, "{:.1f}"), num(r.step_p99_us, "{:.1f}"), num(r.step_max_us, "{:.1f}"),
-                       num(r.others_busy, "{:.2f}"));
+                       num(r.others_busy, "{:.2f}"), num(r.round_trip_ns, "{:.0f}"));
   }
   out << "\nsummary\n";
   for (const auto& r : rs)

@@ -27,6 +27,12 @@ struct PeakPoint {
 struct MachineLimits {
   std::vector<TriadPoint> triad;
   std::vector<PeakPoint> peak;
+  // Time for one cache line to go to another thread and back (ns, median of a few runs; 0 when
+  // fewer than 2 threads are measured). What a phase barrier and every line across the cut
+  // between two threads' halves of a body cost: on the 2-vCPU guests of docs/performance.md it was
+  // 130-200 ns on some days and about 400 on others (the host placing the vCPUs further apart),
+  // and small bodies' 2-thread steps moved with it.
+  double round_trip_ns = 0;
 
   // Triad bandwidth (GB/s) for a working set of `footprint_bytes` on `threads` threads:
   // log-log interpolation along the measured ladder, clamped at its ends.
@@ -50,6 +56,10 @@ MachineLimits measure_machine_limits(const LimitOptions& options);
 double measure_triad(std::size_t footprint_bytes, int threads, int samples, double seconds_per_sample);
 // Peak rate of independent FMA (or multiply and add) chains held in registers, widest ISA built.
 PeakPoint measure_peak(bool is_double, int threads, bool fma, double seconds);
+
+// One cache line bounced between two threads `round_trips` times (release/acquire, no pinning:
+// the threads where the scheduler puts them, as the engine's are): ns per round trip.
+double measure_round_trip(int round_trips);
 
 // CPU model, cores, caches (from /proc/cpuinfo and sysfs), compiler and ISA of this build.
 std::string machine_description();

@@ -34,6 +34,12 @@ struct Record {
   double realtime_factor = kNone;                          // scenes: simulated s per wall s
   std::size_t samples = 0;
   double others_busy = kNone;                              // cores used by other processes meanwhile
+  // Cases on 2 threads or more: the cache-line round trip between two threads (ns,
+  // measure_round_trip) just before and just after the case, the larger. On 2-vCPU guests it went
+  // from about 90 to about 450 ns and back within minutes (the host moving the vCPUs apart), and
+  // small bodies' 2-thread steps with it (the default scene 53 against 87 us): figures compare
+  // only at like round trips.
+  double round_trip_ns = kNone;
   double value = kNone;                                    // machine and summary records
   std::string unit, note;
 };
