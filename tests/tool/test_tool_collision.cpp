@@ -213,5 +213,49 @@ TEST(ClosestPoints, SegmentTriangleAgreesWithHullDistanceOnRandomShapes) {
   std::printf("largest difference of distances over 40000 shapes: %.3g\n", worst);
 }
 
+// The lazy refit's margin check at its edge: a surface vertex moved a hair beyond the margin from
+// where the BVH last saw it must refit the BVH (else a tool could miss a triangle that left its
+// box), one moved just within it need not. Float levels compare in float with a 1e-5 shrink of
+// the margin's square (tool_contact.cpp, left_margin): they may refit early, never late.
+template <class T>
+void margin_edge(Precision precision) {
+  WorldDef wd;
+  wd.gravity = {0, 0, 0};
+  wd.precision = precision;
+  World w(wd);
+  BodyDef bd;
+  bd.mesh.min = {0, 0, 0};
+  bd.mesh.max = {0.04, 0.02, 0.02};
+  bd.mesh.cells = {4, 2, 2};
+  w.add_body(bd);
+  Level<T>& L = w.level<T>(0);
+  const Vec3d origin = w.body_origin(0);
+  Executor exec(1);
+  detail::EmbreeDevice device;
+  detail::LevelContact<T> lc = detail::make_level_contact(device, L, 0, 0, exec, ToolPose{});
+  ASSERT_GT(lc.margin, 0);
+  ToolShapeDef shape;
+  shape.radius = 0.001;
+  ToolPose far;
+  far.position = {origin[0] + 1, origin[1], origin[2]};  // touches nothing: only the margin check acts
+  std::string error;
+  const auto n = std::size_t(lc.surface_nodes[lc.surface_nodes.size() / 2]);
+  const auto moved_by = [&](double factor) {  // node n at factor x margin along x from its rest, then a query
+    for (int k = 0; k < 3; ++k) L.x[k] = L.X[k];
+    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;  // refit at rest if needed
+    const auto at_rest = lc.refits;
+    L.x[0][n] = T(double(L.X[0][n]) + factor * lc.margin);
+    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
+    return lc.refits - at_rest;
+  };
+  EXPECT_EQ(moved_by(1 + 1e-5), 1) << "a vertex beyond the margin did not refit the BVH";
+  EXPECT_EQ(moved_by(1.01), 1);
+  EXPECT_EQ(moved_by(0.99), 0) << "a vertex well within the margin refit the BVH";
+  EXPECT_EQ(moved_by(0.5), 0);
+}
+
+TEST(ToolCollision, AVertexBeyondTheMarginRefitsTheBvhFloat) { margin_edge<float>(Precision::float32); }
+TEST(ToolCollision, AVertexBeyondTheMarginRefitsTheBvhDouble) { margin_edge<double>(Precision::float64); }
+
 }  // namespace
 }  // namespace pliant

@@ -12,6 +12,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <type_traits>
 
 #include "closest_points.hpp"
 #include "pliant/error.hpp"
@@ -75,23 +76,49 @@ LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int 
   return lc;
 }
 
+// Whether some surface vertex has moved more than lc.margin from where the BVH last saw it (step 1
+// of find_tool_contacts, every query). A double level sums the squared distance in double; a
+// float one in float, against the margin's square shrunk by 1e-5, far more than float's rounding
+// of that sum (3 differences, 3 squares, 2 additions: under 1e-6 relative), so a vertex beyond
+// the margin is never missed, and one just within it may refit a query early, which changes no
+// contact (the candidates are a superset of the hits either way, and sorted). The loop has no
+// dependent chain (an or, not a running max) and runs in vector lanes, bound by the gathers of the
+// positions through `node`: on the default scene (1 thread, perf samples) find_tool_contacts went
+// from 0.99 % to 0.86 % of the run, about 0.75 us a step.
+template <class T>
+bool left_margin(const LevelContact<T>& lc, const Level<T>& L) {
+  const std::size_t n = lc.surface_nodes.size();
+  const std::int32_t* node = lc.surface_nodes.data();
+  const float* vb = lc.bvh->vertices();
+  const T *x0 = L.x[0].data(), *x1 = L.x[1].data(), *x2 = L.x[2].data();
+  if constexpr (std::is_same_v<T, float>) {
+    const float limit = float(lc.margin * lc.margin * (1 - 1e-5));
+    int far = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto v = std::size_t(node[i]);
+      const float d0 = x0[v] - vb[4 * i], d1 = x1[v] - vb[4 * i + 1], d2 = x2[v] - vb[4 * i + 2];
+      far |= int(d0 * d0 + d1 * d1 + d2 * d2 > limit);
+    }
+    return far != 0;
+  } else {
+    const double limit = lc.margin * lc.margin;
+    int far = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+      const auto v = std::size_t(node[i]);
+      const double d0 = x0[v] - double(vb[4 * i]), d1 = x1[v] - double(vb[4 * i + 1]), d2 = x2[v] - double(vb[4 * i + 2]);
+      far |= int(d0 * d0 + d1 * d1 + d2 * d2 > limit);
+    }
+    return far != 0;
+  }
+}
+
 template <class T>
 bool find_tool_contacts(LevelContact<T>& lc, const Level<T>& L, const ToolShapeDef& shape, const ToolPose& from,
                         const ToolPose& to, const Vec3d& origin, Executor& exec, std::string& error) {
   // 1. The BVH follows the surface: refit once a vertex has left its box's margin.
   float* vb = lc.bvh->vertices();
-  double moved2 = 0;
-  for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i) {
-    const auto n = std::size_t(lc.surface_nodes[i]);
-    double d2 = 0;
-    for (int k = 0; k < 3; ++k) {
-      const double d = double(L.x[k][n]) - double(vb[4 * i + std::size_t(k)]);
-      d2 += d * d;
-    }
-    moved2 = std::max(moved2, d2);
-  }
   ++lc.queries;
-  if (moved2 > lc.margin * lc.margin) {
+  if (left_margin(lc, L)) {
     for (std::size_t i = 0; i < lc.surface_nodes.size(); ++i)
       for (int k = 0; k < 3; ++k) vb[4 * i + std::size_t(k)] = float(L.x[k][std::size_t(lc.surface_nodes[i])]);
     if (!lc.bvh->refit(exec, error)) return false;
