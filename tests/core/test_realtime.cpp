@@ -68,6 +68,33 @@ TEST(RealTime, StepsFasterThanTheClockWaitAndNeverMissTheirDeadline) {
   EXPECT_EQ(free_run.state_hash(), paced_hash);
 }
 
+TEST(RealTime, TheWaitsReadTheBodiesPagesAndChangeNothing) {
+  // Frames of 2 ms whose steps take almost nothing: each wait has time to read pages of the
+  // bodies' arrays (World::touch_pages, up to 64 a frame, stopping 0.3 ms before the frame); the
+  // run ends as a free run does. With frames of one step (a wait of 0.6 steps, under 0.3 ms) it
+  // reads none.
+  const SceneDef scene = beam();
+  RunOptions o;
+  o.write_files = false;
+  o.realtime = true;
+  o.realtime_frame = 0.002;
+  World w = make_world(scene, o);
+  FakeClock clock{&w, 0.01 * w.dt(), 0, w.steps()};
+  o.wall_clock = [&] { return clock.now(); };
+  o.sleep_until = [&](double t) { clock.slept += std::max(0.0, t - clock.now()); };
+  const RunSummary s = run_world(scene, w, o);
+  EXPECT_EQ(s.deadline_misses, 0);
+  EXPECT_GT(s.pages_touched, s.frames);  // several pages a frame
+  EXPECT_LE(s.pages_touched, 64 * s.frames);
+  RunOptions free_options;
+  free_options.write_files = false;
+  World free_run = make_world(scene, free_options);
+  run_world(scene, free_run, free_options);
+  EXPECT_EQ(w.state_hash(), free_run.state_hash());
+  ASSERT_LT(0.6 * w.dt(), 300e-6);
+  EXPECT_EQ(paced_run(0.4).pages_touched, 0);
+}
+
 TEST(RealTime, StepsSlowerThanTheClockAreCountedAndTheLagMeasured) {
   // Each step costs 2.5 steps of wall time: step k (1-based) ends at 2.5 k dt, due at k dt: lag 1.5 k dt.
   const RunSummary s = paced_run(2.5);

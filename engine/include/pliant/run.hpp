@@ -116,6 +116,9 @@ struct RunSummary {
   // most a frame started after its due time although it had waited for it (the OS's scheduling).
   std::int64_t frames_over = 0;
   double wake_late_max_s = 0;
+  // Pages of the bodies' arrays read in the waits before frames (World::touch_pages), to keep
+  // memory that idle levels leave untouched from going cold under a host that reclaims it.
+  std::int64_t pages_touched = 0;
   // The controller of real-time runs with adaptive bodies: how often it coarsened and refined
   // again, and the thresholds' largest and final scale (1 = the scene's).
   std::int64_t controller_coarsened = 0, controller_refined = 0;

@@ -155,6 +155,14 @@ class World {
   template <class T>
   const Level<T>& level(BodyId body, int level = 0) const;
 
+  // Reads one byte of each page (4 KiB) of the bodies' level arrays, `pages` pages a call, from
+  // where the last call stopped (round and round); returns how many it read. Changes nothing. For
+  // hosts stepping in real time, in the idle time between frames (`pliant run --realtime` calls
+  // it there): on a virtual machine whose host reclaims guest memory left untouched, the arrays of
+  // a level idle for seconds took 100-400 us per 36 KB to read again (docs/adaptivity.md), which
+  // the frame that starts using them pays.
+  std::size_t touch_pages(std::size_t pages);
+
   // The same, read-only, as spans over the SoA arrays (no copy; valid until the body is destroyed):
   // positions<float>(body)[2][n] is node n's z (m) in the BODY frame, i.e. its world z is
   // body_origin(body)[2] + positions<float>(body)[2][n]. T must match the world's precision.

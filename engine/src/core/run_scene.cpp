@@ -204,6 +204,7 @@ void write_summary(const fs::path& path, const RunSummary& s) {
     j["frame_max_us"] = s.frame_max_us;
     j["frames_over"] = s.frames_over;
     j["wake_late_max_s"] = s.wake_late_max_s;
+    j["pages_touched"] = s.pages_touched;
     j["lag_mean_s"] = s.lag_mean_s;
     j["lag_max_s"] = s.lag_max_s;
   }
@@ -446,6 +447,20 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         const double due = wall0 + (world.time() - sim0);  // the wall-clock time of this frame's start
         const double before = wall_now();
         if (before < due) {
+          // The wait first reads a few pages of the bodies' arrays (World::touch_pages), batch by
+          // batch while more than kTouchStop is left: on a guest whose host reclaims memory left
+          // untouched for seconds, an idle level's arrays were 100-400 us per 36 KB slower to read
+          // again, paid by the frame that starts using them (docs/adaptivity.md). kTouchPerFrame
+          // pages a frame go round a 50k-tet body's 10 MB in about 40 frames; a page read when
+          // warm costs about a cache miss, so that is a few us of the wait.
+          constexpr std::size_t kTouchPerFrame = 64, kTouchBatch = 8;
+          constexpr double kTouchStop = 300e-6;  // s before the frame's start: a cold page can take ~100 us
+          for (std::size_t done = 0; done < kTouchPerFrame && due - wall_now() > kTouchStop;) {
+            const std::size_t n = world.touch_pages(kTouchBatch);
+            if (n == 0) break;
+            done += n;
+            s.pages_touched += std::int64_t(n);
+          }
           wait_until(due);
           const double woke = wall_now();
           clock.idle(woke - before);

@@ -15,6 +15,7 @@
 #include "pliant/mesh_io.hpp"
 #include "pliant/meshing.hpp"
 #include "pliant/skin.hpp"
+#include "level_arrays.hpp"
 #include "simulation.hpp"
 
 namespace pliant {
@@ -208,6 +209,7 @@ struct World::Impl {
   std::vector<MeshLoadReport> load_reports;  // per body: what loading fixed in its mesh
   std::vector<std::vector<std::int32_t>> node_maps;  // per body: file vertex -> node (World::node_map)
   std::int64_t stiffness_checks = 0;
+  std::size_t touch_cursor = 0;  // touch_pages: bytes into the bodies' level arrays, end to end
   void adapt_substeps() {
     ++stiffness_checks;
     stiffness_ratio = visit([&](auto& s) { return s.stiffness_ratio(exec); });
@@ -826,6 +828,45 @@ std::int64_t World::adapted_steps() const { return impl_->adapted_steps; }
 double World::stiffness_ratio() const { return impl_->stiffness_ratio; }
 double World::max_stiffness_ratio() const { return impl_->max_stiffness_ratio; }
 std::int64_t World::stiffness_checks() const { return impl_->stiffness_checks; }
+
+std::size_t World::touch_pages(std::size_t pages) {
+  constexpr std::size_t kPage = 4096;
+  Impl& w = *impl_;
+  // The arrays end to end; the cursor is a byte offset into that sequence. One call reads from the
+  // cursor to the end, then from the start up to where it began: each page once at most.
+  const std::size_t from = w.touch_cursor;
+  std::size_t touched = 0, total = 0;
+  unsigned sum = 0;
+  const auto read = [&](std::size_t lo, std::size_t hi) {  // the pages starting in [lo, hi) of the sequence
+    std::size_t seen = 0;
+    w.visit([&](const auto& sim) {
+      for (const auto& body : sim.bodies)
+        for (const auto& L : body.levels)
+          detail::for_each_level_array(L, [&](const void* data, std::size_t bytes) {
+            const std::size_t start = seen;
+            seen += bytes;
+            if (touched >= pages || seen <= lo || start >= hi) return;
+            const auto* p = static_cast<const volatile unsigned char*>(data);
+            std::size_t at = lo > start ? lo - start : 0;
+            at = (at + kPage - 1) / kPage * kPage;  // pages from the array's start
+            for (; at < bytes && start + at < hi && touched < pages; at += kPage) {
+              sum += p[at];
+              ++touched;
+              w.touch_cursor = start + at + kPage;
+            }
+          });
+    });
+    return seen;
+  };
+  total = read(from, ~std::size_t(0));
+  if (touched < pages) {
+    w.touch_cursor = 0;
+    read(0, std::min(from, total));
+  }
+  if (w.touch_cursor >= total) w.touch_cursor = 0;
+  (void)sum;
+  return touched;
+}
 Vec3d World::gravity() const { return impl_->def.gravity; }
 const std::vector<ObstacleDef>& World::obstacles() const {
   return impl_->visit([](auto& s) -> const std::vector<ObstacleDef>& { return s.obstacles; });
