@@ -5,7 +5,12 @@
 // steps (with their index modulo the coarsest level's period: the ticks where windows end), and
 // each level's stepped tets at the end. docs/adaptivity.md quotes it for the middle level's cost.
 //   frame_probe SCENE [--set PATH=VALUE]... [--duration S] [--threads N] [--scale X] [--cap LEVEL]
-//               [--budget SPLITS] [--frame S]
+//               [--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S]
+// --paced 1 waits for each frame's wall-clock time as `pliant run --realtime` does (then memory
+// the idle levels leave untouched ages as in a real-time run); --touch reads that many pages of
+// the bodies' arrays in each wait (World::touch_pages; the runner reads up to 64); --lift-at lifts
+// the cap at that simulated time and prints the frames that follow it (what a try of the finer
+// levels costs after they sat idle).
 // --set edits the scene as `pliant study --sweep` does, e.g. the 50k-tet organ of docs/adaptivity.md:
 //   frame_probe scenes/adaptive_organ.json --set bodies[0].mesh.cell_size=0.0043 --threads 2 --scale 4 --cap 1 --budget 2
 #include <fmt/format.h>
@@ -19,6 +24,7 @@
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "pliant/error.hpp"
@@ -46,8 +52,8 @@ int usage() {
 
 int main(int argc, char** argv) {
   if (argc < 2) return usage();
-  double duration = 1, scale = 1, frame = 1e-3;
-  int threads = 0, cap = -1, budget = 0;
+  double duration = 1, scale = 1, frame = 1e-3, lift_at = -1;
+  int threads = 0, cap = -1, budget = 0, paced = 0, touch = 0;
   std::vector<std::string> overrides;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
@@ -63,6 +69,9 @@ int main(int argc, char** argv) {
     else if (a == "--cap") cap = int(v);
     else if (a == "--budget") budget = int(v);
     else if (a == "--frame") frame = v;
+    else if (a == "--paced") paced = int(v);
+    else if (a == "--touch") touch = int(v);
+    else if (a == "--lift-at") lift_at = v;
     else return usage();
   }
   if (!(duration > 0) || !(frame > 0)) return usage();
@@ -89,7 +98,26 @@ int main(int argc, char** argv) {
     const auto per_frame = std::max<std::int64_t>(1, std::llround(frame / w.dt()));
     std::vector<double> step_us;
     step_us.reserve(std::size_t(steps));
+    const auto wall0 = std::chrono::steady_clock::now();
+    const double sim0 = w.time();
+    std::int64_t lift_step = -1;
     for (std::int64_t i = 0; i < steps; ++i) {
+      if (paced && i % per_frame == 0) {  // a frame starts: wait for its wall-clock time
+        const auto due = wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                     std::chrono::duration<double>(w.time() - sim0));
+        for (int done = 0; done < touch && std::chrono::steady_clock::now() + std::chrono::microseconds(300) < due; done += 8)
+          if (w.touch_pages(8) == 0) break;
+        if (std::chrono::steady_clock::now() + std::chrono::microseconds(150) < due)
+          std::this_thread::sleep_until(due - std::chrono::microseconds(150));
+        while (std::chrono::steady_clock::now() < due) {
+        }
+      }
+      if (lift_at >= 0 && lift_step < 0 && w.time() >= lift_at) {
+        lift_step = i;
+        for (std::size_t b = 0; b < w.body_count(); ++b)
+          if (w.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive)
+            w.set_adapt_cap(BodyId(b), w.level_count(BodyId(b)) - 1);
+      }
       const auto a = std::chrono::steady_clock::now();
       w.step();
       step_us.push_back(1e6 * std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count());
@@ -112,6 +140,14 @@ int main(int argc, char** argv) {
                per_frame, double(per_frame) * w.dt(), frame_us.size(), frame_sum / double(std::max<std::size_t>(frame_us.size(), 1)),
                quantile(frame_us, 0.5), quantile(frame_us, 0.99),
                frame_us.empty() ? 0.0 : *std::max_element(frame_us.begin(), frame_us.end()), over);
+    if (lift_step >= 0) {  // the frames after the lift: their stepping, and the slowest step among them
+      const auto first = std::size_t(lift_step) / std::size_t(per_frame);
+      for (std::size_t f = first; f < std::min(frame_us.size(), first + 12); ++f) {
+        double slowest = 0;
+        for (std::size_t j = f * std::size_t(per_frame); j < (f + 1) * std::size_t(per_frame); ++j) slowest = std::max(slowest, step_us[j]);
+        fmt::print("  frame {} after the lift: {:.1f} us (slowest step {:.1f})\n", f - first, frame_us[f], slowest);
+      }
+    }
     std::vector<std::size_t> order(step_us.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
     const std::size_t top = std::min<std::size_t>(5, order.size());
