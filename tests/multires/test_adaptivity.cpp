@@ -298,14 +298,19 @@ TEST(Adaptivity, ACapOfZeroMergesWhatIsSplitThenDecidesNothingUntilItIsLifted) {
   EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
 }
 
-TEST(Adaptivity, ACapOfOneKeepsAThreeLevelBodyOffItsFinestLevelUntilLifted) {
-  // Capped at its middle level, a bent 3-level bar splits its coarsest nodes but none of its middle
-  // ones (their measure is not even taken); lifted, the middle nodes split too.
-  World w(no_gravity());
+// The bar above pushed 3 cm and held, in 3 levels, alone in a world without gravity.
+void add_three_level_bar(World& w) {
   BodyDef b = pushed_bar(0.03, false);
   b.multiresolution.levels = 3;
   w.add_body(b);
   ASSERT_EQ(w.level_count(0), 3);
+}
+
+TEST(Adaptivity, ACapOfOneKeepsAThreeLevelBodyOffItsFinestLevelUntilLifted) {
+  // Capped at its middle level, a bent 3-level bar splits its coarsest nodes but none of its middle
+  // ones (their measure is not even taken); lifted, the middle nodes split too.
+  World w(no_gravity());
+  add_three_level_bar(w);
   w.set_adapt_cap(0, 1);
   while (w.time() < 0.1) w.step();
   EXPECT_GT(w.level_info(0, 1).stepped_tets, 0u);
@@ -323,10 +328,7 @@ TEST(Adaptivity, TheDeformationMonitorChecksAsOftenAsTheFinestSteppedLevelMoves)
   // steps again and the checks come within 16 fine steps at once, not at the end of the long
   // interval already planned.
   World w(no_gravity());
-  BodyDef b = pushed_bar(0.03, false);
-  b.multiresolution.levels = 3;
-  w.add_body(b);
-  ASSERT_EQ(w.level_count(0), 3);
+  add_three_level_bar(w);
   w.set_adapt_cap(0, 0);
   for (int i = 0; i < 200; ++i) w.step();  // the first checks come every 1, 2, 4 ... steps
   ASSERT_EQ(w.level_info(0, 1).stepped_tets, 0u);
