@@ -582,6 +582,21 @@ std::string format_table(const std::vector<Record>& rs) {
                        num(r.step_p50_us, "{:.1f}"), num(r.step_p99_us, "{:.1f}"), num(r.step_max_us, "{:.1f}"),
                        num(r.others_busy, "{:.2f}"), num(r.round_trip_ns, "{:.0f}"));
   }
+  // Cases whose threads the host had put far apart: on the 2-vCPU guests of docs/performance.md the
+  // round trip was 70-120 ns in the near placement and 390-720 ns in the far one, never between;
+  // far, small bodies stepped slower on 2 threads than on 1.
+  constexpr double kFarRoundTripNs = 250;
+  std::size_t far = 0, timed = 0;
+  for (const auto& r : rs)
+    if ((r.kind == "step" || r.kind == "scene") && !std::isnan(r.round_trip_ns)) {
+      ++timed;
+      far += r.round_trip_ns > kFarRoundTripNs;
+    }
+  if (far > 0)
+    out << fmt::format("\nnote: {} of the {} cases on 2+ threads ran with a cache-line round trip over {:.0f} ns between "
+                       "their threads (column rt ns): the host had put them far apart, and their 2-thread figures are "
+                       "slower than in the near placement; compare only cases of like round trips\n",
+                       far, timed, kFarRoundTripNs);
   out << "\nsummary\n";
   for (const auto& r : rs)
     if (r.kind == "summary")
