@@ -779,7 +779,8 @@ void World::step() {
   // finer level began to step since (an adaptive body refined: its checks come 16x as often).
   if (w.def.time_step.adapt && (w.stiffness_ratio > Impl::kAdaptTrigger || w.substeps > w.base_substeps ||
                                  w.steps >= w.next_check ||
-                                 w.steps - w.last_check_step >= std::int64_t(Impl::kAdaptIntervalMax) * w.moving_steps()) &&
+                                 (w.steps - w.last_check_step >= Impl::kAdaptIntervalMax &&  // cheap test first
+                                  w.steps - w.last_check_step >= std::int64_t(Impl::kAdaptIntervalMax) * w.moving_steps())) &&
       w.visit([](const auto& s) { return s.can_stiffen(); })) {
     w.adapt_substeps();
   }
