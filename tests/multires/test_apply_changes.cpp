@@ -203,6 +203,13 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
     for (int k = 0; k < 3 && !held; ++k)  // held: no correction (momentum goes to the fixed nodes)
       worst_momentum = std::max(worst_momentum, std::abs(p[std::size_t(k)] - p0[std::size_t(k)]) / std::abs(p0[0]));
     worst = std::max(worst, compare(a.body, a.full(t), "change " + std::to_string(c)));
+    // A node no level integrates (a ghost, or inactive) weighs nothing: what lets an undo leave a
+    // level that steps no tet before or after a change unsaved (adaptivity.cpp, save_state).
+    std::size_t weighing = 0;
+    for (const auto& L : a.body.levels)
+      for (std::size_t i = 0; i < L.node_count; ++i)
+        weighing += (L.state[i] == kNodeGhost || L.state[i] == kNodeInactive) && (L.mass[i] != 0 || L.inv_mass[i] != 0);
+    EXPECT_EQ(weighing, 0u) << "change " << c;
     worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
     // Own masses and region counts kept by the patch against those made from the full apply.
     SimBody<double> full = a.full(t);
@@ -363,12 +370,17 @@ bool same_bits(const A& got, const A& want) {
   return got.size() == want.size() && (got.empty() || std::memcmp(got.data(), want.data(), got.size() * sizeof(got[0])) == 0);
 }
 
-UndoOutcome undo_a_change(BodyDef def, bool and_split) {
+// cap >= 0: no split beyond that level (World::set_adapt_cap), so the levels finer than it step
+// nothing, before the change or after it: save_state does not copy them (their nodes are
+// inactive, and nothing the change or its undo does writes them), and their bits must still be
+// what they were.
+UndoOutcome undo_a_change(BodyDef def, bool and_split, int cap = -1) {
   def.multiresolution.active.adapt.min_dwell = 0;  // a region calm at one decision merges at it
   Adaptive a(def);
   a.body.adapt = make_adaptive_state(std::shared_ptr<const Hierarchy>(&a.h, [](const Hierarchy*) {}),
                                      def.multiresolution.active, a.body);
   AdaptiveState& st = *a.body.adapt;
+  if (cap >= 0) st.cap = cap;
   std::mt19937 rng(99);
   std::uniform_real_distribution<double> velocity(-0.1, 0.1);
   const double length = def.mesh.max[0];
@@ -390,6 +402,10 @@ UndoOutcome undo_a_change(BodyDef def, bool and_split) {
   const std::int64_t splits = st.splits, merges = st.merges, changes = st.changes;
   EXPECT_TRUE(adapt_body(a.body, 0.01));
   EXPECT_TRUE(st.undoable);
+  for (std::size_t l = std::size_t(cap) + 1; cap >= 0 && l < a.body.levels.size(); ++l) {  // idle throughout
+    EXPECT_EQ(before.levels[l].stepped_count, 0u) << l;
+    EXPECT_EQ(a.body.levels[l].stepped_count, 0u) << l;
+  }
   UndoOutcome out;
   std::vector<TargetChange> merged;
   for (const TargetChange& c : st.decided) {
@@ -453,15 +469,17 @@ TEST(ApplyChanges, AnUndoneChangeLeavesTheBodyAsItWasToTheBit) {
   coarse.tets_per_cell = 5;
   def.multiresolution.coarser = {coarse};
   const UndoOutcome non_nested = undo_a_change(def, false);
+  const UndoOutcome capped = undo_a_change(bar({16, 4, 4}, 3, 2), false, 1);  // the finest level idle
   std::printf("undone: %lld merges (nested, 3 levels); %lld merges, %lld splits kept (a second bump); %lld merges "
-              "(non-nested)\n",
+              "(non-nested); %lld merges (nested, the finest level idle)\n",
               static_cast<long long>(merges.merges), static_cast<long long>(both.merges), static_cast<long long>(both.splits),
-              static_cast<long long>(non_nested.merges));
+              static_cast<long long>(non_nested.merges), static_cast<long long>(capped.merges));
   EXPECT_GT(merges.merges, 0);
   EXPECT_EQ(merges.splits, 0);
   EXPECT_GT(both.merges, 0);
   EXPECT_GT(both.splits, 0);
   EXPECT_GT(non_nested.merges, 0);
+  EXPECT_GT(capped.merges, 0);
 }
 
 

@@ -147,20 +147,28 @@ CarriedField carried_field(const SimBody<T>& body, const Hierarchy& h, const Sta
 }
 
 // The state an undo restores (AdaptiveState::Scratch::before): every node's x, v, mass and
-// inv_mass, copied as they are (bytes: a copy, not a conversion; on the 50k-tet organ, 8 arrays of
-// 13 000 floats, about 0.4 MB, at each decision that changes the body and can be undone).
+// inv_mass, copied as they are (bytes: a copy, not a conversion), for the levels the change can
+// write: those that step a tet before it or start stepping one with it (ch.tets_on). A level that
+// steps none before or after has only inactive nodes: the change carries no state to them (only
+// to nodes whose role changes), keep_momentum moves free nodes only, and a mass written to them
+// (a renormalisation writes every node's) is 0, as it was (an inactive node weighs nothing;
+// tests/multires/test_apply_changes.cpp checks it). On the 50k-tet organ held at its middle level,
+// the finest level's 8 arrays of 10 700 nodes (340 KB, idle since the last change) were most of a
+// save: 64 us on average, up to 210 (frame_probe at cap 1, 2026-11-28), for nothing.
 template <class T>
 std::array<AlignedVector<T>*, 8> undo_arrays(Level<T>& L) {
   return {&L.x[0], &L.x[1], &L.x[2], &L.v[0], &L.v[1], &L.v[2], &L.mass, &L.inv_mass};
 }
 
 template <class T>
-void save_state(SimBody<T>& body, AdaptiveState& st) {
+void save_state(SimBody<T>& body, AdaptiveState& st, const ActivationState::Changes& ch) {
   auto& before = st.scratch.before;
   before.resize(body.levels.size());
   for (std::size_t l = 0; l < body.levels.size(); ++l) {
-    const std::size_t bytes = body.levels[l].node_count * sizeof(T);
-    before[l].resize(8 * bytes);
+    const Level<T>& L = body.levels[l];
+    const bool written = L.stepped_count > 0 || !ch.tets_on[l].empty();
+    const std::size_t bytes = written ? L.node_count * sizeof(T) : 0;
+    before[l].resize(8 * bytes);  // empty: not saved, restore_state leaves the level as it is
     if (bytes == 0) continue;  // (memcpy from an empty array's null data() is undefined)
     std::size_t at = 0;
     for (const AlignedVector<T>* a : undo_arrays(body.levels[l])) {
@@ -176,7 +184,7 @@ void save_state(SimBody<T>& body, AdaptiveState& st) {
 template <class T>
 void restore_state(SimBody<T>& body, AdaptiveState& st) {
   for (std::size_t l = 0; l < body.levels.size(); ++l) {
-    const std::size_t bytes = body.levels[l].node_count * sizeof(T);
+    const std::size_t bytes = st.scratch.before[l].size() / 8;
     if (bytes == 0) continue;
     std::size_t at = 0;
     for (AlignedVector<T>* a : undo_arrays(body.levels[l])) {
@@ -191,8 +199,10 @@ void restore_state(SimBody<T>& body, AdaptiveState& st) {
 
 }  // namespace
 
+// save: keep the state before the change for undo_change (save_state, once update() has said
+// which levels the change writes).
 template <class T>
-bool apply_targets(SimBody<T>& body, double t);
+bool apply_targets(SimBody<T>& body, double t, bool save = false);
 
 template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change,
@@ -478,8 +488,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
     commands |= c.kind == TargetChange::command;
   }
   st.undoable = merges && !commands;
-  if (st.undoable) save_state(body, st);
-  if (!apply_targets(body, t)) {
+  if (!apply_targets(body, t, st.undoable)) {
     st.undoable = false;
     return false;
   }
@@ -528,7 +537,7 @@ bool undo_change(SimBody<T>& body, double t) {
 // over to the nodes that change (the field taken before the decision, in st.scratch). Returns
 // false if the activation did not change.
 template <class T>
-bool apply_targets(SimBody<T>& body, double t) {
+bool apply_targets(SimBody<T>& body, double t, bool save) {
   AdaptiveState& st = *body.adapt;
   const Hierarchy& h = *st.hierarchy;
   ActivationState& as = *st.activation;
@@ -542,6 +551,7 @@ bool apply_targets(SimBody<T>& body, double t) {
     changed |= !ch.tets_on[std::size_t(l)].empty() || !ch.tets_off[std::size_t(l)].empty() ||
                !ch.tets_reweighed[std::size_t(l)].empty() || !ch.nodes[std::size_t(l)].empty();
   if (!changed) return false;
+  if (save) save_state(body, st, ch);
   // Patched in place, over the changed nodes and tets only (apply_changes.hpp).
   const ChangeSet cs = apply_changes(body, st.patch, as, ch, t);
   st.touched_nodes += std::int64_t(cs.stats.nodes);
