@@ -95,10 +95,16 @@ PackContext<T> pack_context(Level<T>& L) {
   }
   return c;
 }
+// `nodes`: how many of the level's nodes the pack copies (a multiresolution level packs only its
+// node pieces, the corners of its stepped tets: Simulation::step).
+template <class T>
+bool pack_pays(const Level<T>& L, std::size_t tets, std::size_t nodes) {
+  return packed_corners_pay<T>() && L.node_count > 0 && L.x_packed.size() == 4 * L.node_count && nodes > 0 &&
+         tets >= 2 * nodes;
+}
 template <class T>
 bool pack_pays(const Level<T>& L, std::size_t tets) {
-  return packed_corners_pay<T>() && L.node_count > 0 && L.x_packed.size() == 4 * L.node_count &&
-         tets >= 2 * L.node_count;
+  return pack_pays(L, tets, L.node_count);
 }
 // Points ec at the packed copies (on) or back at x and v only (off).
 template <class T>

@@ -150,6 +150,11 @@ class World {
   // body_origin(body)). T must match the world's precision (else InputError). Positions and
   // velocities may be written between steps (initial conditions, body frame); sizes must not change,
   // nor the rest data (tet, grad, volume: the step keeps copies of a listed level's, made at load).
+  // A level stepped every p > 1 ticks (a multiresolution body's coarser levels) reads a copy of its
+  // positions and velocities taken at the first tick of its window: this call marks those copies
+  // stale, so write through a reference obtained after the last step (call level() again) for the
+  // next tick to read what was written; writes through an older reference are read from the
+  // level's next window.
   template <class T>
   Level<T>& level(BodyId body, int level = 0);
   template <class T>

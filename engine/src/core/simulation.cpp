@@ -287,9 +287,12 @@ void run_listed_piece(const void* ctx, Range r) {
   const auto& p = *static_cast<const ElementPiece<T>*>(ctx);
   p.job->listed_pass(p.job->ec, p.job->stepped.data(), Range{p.first_tet + r.begin, p.first_tet + r.end});
 }
+// The pack over a NodePiece (its level's nodes that are not inactive: every corner of its stepped
+// tets): r counts from the piece's first node.
 template <class T>
-void run_pack(const void* ctx, Range r) {
-  pack_positions(*static_cast<const PackContext<T>*>(ctx), r);
+void run_pack_piece(const void* ctx, Range r) {
+  const auto& p = *static_cast<const NodePiece<T>*>(ctx);
+  pack_positions(p.job->pack, Range{p.first + r.begin, p.first + r.end});
 }
 template <class T>
 void run_ghosts(const void* ctx, Range r) {
@@ -371,16 +374,36 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
 
   // B: the element passes due now: each level's slice of its stepped tets, cut at run boundaries.
   // First the positions of those levels, interleaved for the passes' corner loads where that pays
-  // (a phase of its own, between the ghosts, which it packs too, and the element passes).
+  // (a phase of its own, between the ghosts, which it packs too, and the element passes): at the
+  // first slice of each window, for the whole window (LevelJobState::window_pack), over the
+  // level's node pieces (the corners of its stepped tets), when the window's tets are at least
+  // twice those nodes (pack_pays). Packed or gathered, the corners are the same values: the same
+  // bits. A host that took a level (World::level) may have written it between steps
+  // (packs_stale_): the windows open then are packed again at their next slice.
   auto& pack = tick_segments_[kPhasePack];
   for (std::size_t j = 0; j < jobs; ++j) {
     Level<T>& L = level_of(j);
     LevelJobState<T>& js = job_state_[j];
-    const bool packed = due_[j].begin < due_[j].end && pack_pays(L, due_[j].end - due_[j].begin);
+    using WindowPack = typename LevelJobState<T>::WindowPack;
+    if (due_[j].window_start || packs_stale_) js.window_pack = WindowPack::undecided;
+    bool packed = false;
+    if (due_[j].begin < due_[j].end) {
+      if (js.window_pack == WindowPack::undecided) {
+        std::size_t nodes = 0;
+        for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) nodes += node_pieces_[q].count;
+        const bool pays = pack_pays(L, L.stepped_count, nodes);
+        js.window_pack = pays ? WindowPack::packed : WindowPack::gathered;
+        if (pays)
+          for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
+            const std::size_t n = node_pieces_[q].count;
+            pack.push_back({n, tick_grain(n, kTickNodeChunk, kNodeGrain, exec.threads()), &run_pack_piece<T>, &node_pieces_[q]});
+          }
+      }
+      packed = js.window_pack == WindowPack::packed;
+    }
     use_packed(js.ec, js.pack, packed);
-    if (packed)
-      pack.push_back({L.node_count, tick_grain(L.node_count, kTickNodeChunk, kNodeGrain, exec.threads()), &run_pack<T>, &js.pack});
   }
+  packs_stale_ = false;
   pieces_.clear();
   last_tick_tets_ = 0;
   for (std::size_t j = 0; j < jobs; ++j) {

@@ -138,6 +138,13 @@ struct LevelJobState {
   ListedElementPass<T> listed_pass = nullptr;
   std::vector<std::int32_t> stepped;
   PackContext<T> pack;  // positions into x_packed, before the element pass (ec.xp set each tick)
+  // Whether the element passes of the level's current window read the packed copy: decided at the
+  // window's first slice, which packs it (Simulation::step). Every slice of a window reads the same
+  // positions and velocities (the level moves at the window's end, its ghosts at its start), so one
+  // pack serves the whole window: a level stepped every p ticks packs once per p ticks, not never
+  // (a tick's slice alone, a p-th of its tets, never paid for a pack of the level).
+  enum class WindowPack : std::uint8_t { undecided, packed, gathered };
+  WindowPack window_pack = WindowPack::undecided;
   GatherContext<T> gc;
   IntegrateContext<T> ic;
   GhostContext<T> gh;
@@ -319,7 +326,13 @@ class Simulation {
 
   void relocate_probes(int body);
 
+  // The host took a level to write (World::level): the windows open now pack their positions again
+  // at their next slice (LevelJobState::window_pack), so that what it wrote between two steps is
+  // read by the slices after them, as without the pack.
+  void levels_given_to_host() { packs_stale_ = true; }
+
  private:
+  bool packs_stale_ = false;
   std::int64_t tick_ = 0;
   std::size_t last_tick_tets_ = 0;
   std::vector<LevelJob> jobs_;

@@ -931,17 +931,27 @@ std::array<Vec3d, 4> World::corner_forces(BodyId b, int l, std::size_t tet) cons
   });
 }
 
-template <class T>
-Level<T>& World::level(BodyId b, int l) {
-  auto* s = std::get_if<detail::Simulation<T>>(&impl_->sim);
+namespace {
+// The world's simulation in precision T, for level<T>() (InputError if the world's is the other).
+template <class T, class Sim>
+auto& simulation_in(Sim& sim, Precision precision) {
+  auto* s = std::get_if<detail::Simulation<T>>(&sim);
   if (!s)
     throw InputError(fmt::format("level<{}>() on a world of precision {}", sizeof(T) == 4 ? "float" : "double",
-                                 to_string(impl_->def.precision)));
-  return impl_->level(*s, b, l);
+                                 to_string(precision)));
+  return *s;
+}
+}  // namespace
+
+template <class T>
+Level<T>& World::level(BodyId b, int l) {
+  auto& s = simulation_in<T>(impl_->sim, impl_->def.precision);
+  s.levels_given_to_host();  // it may write positions and velocities between steps
+  return impl_->level(s, b, l);
 }
 template <class T>
 const Level<T>& World::level(BodyId b, int l) const {
-  return const_cast<World*>(this)->level<T>(b, l);
+  return impl_->level(simulation_in<T>(impl_->sim, impl_->def.precision), b, l);
 }
 template Level<float>& World::level<float>(BodyId, int);
 template Level<double>& World::level<double>(BodyId, int);

@@ -1,0 +1,122 @@
+// The packed copy of a level's positions and velocities (Level::x_packed, v_packed), which a level
+// stepped every p ticks packs once, at the first slice of its window, for every slice of the window
+// (Simulation::step, LevelJobState::window_pack): while the window is open, every corner of the
+// level's stepped tets must read what the level holds (the element passes load the copy instead of
+// gathering x and v, and must compute the same bits); a host that takes a level between steps
+// (World::level) and writes it is read at the next tick; taking it without writing changes nothing.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+
+#include "pliant/world.hpp"
+
+namespace pliant {
+namespace {
+
+// A damped bar clamped at x = 0 with three levels: the finest steps its last fifth, the coarser
+// ones the rest (their periods 2 and 4 fine ticks), bending under gravity, so that positions and
+// velocities change from one window to the next.
+World three_level_bar() {
+  WorldDef wd;
+  wd.precision = Precision::float32;
+  wd.gravity = {0, 0, -9.81};
+  World w(wd);
+  BodyDef b;
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = {0.4, 0.1, 0.1};
+  b.mesh.cells = {48, 12, 12};
+  b.material.young = 2e5;
+  b.material.damping.stiffness = 0.002;  // Rayleigh: the damped passes read the corners' velocities too
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-6, 1, 1};
+  b.fixed.push_back(clamp);
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.kind = ActiveDef::Kind::regions;
+  ActiveRegionDef fine;
+  fine.level = 2;
+  fine.region.min = {0.32, -1, -1};
+  fine.region.max = {1, 1, 1};
+  b.multiresolution.active.regions.push_back(fine);
+  w.add_body(b);
+  return w;
+}
+
+// Whether level l's windows are packed (pack_pays: its stepped tets at least twice the nodes of its
+// passes, and a packed copy at all: the kernels' ISA and precision decide, level_passes.hpp).
+bool packs(const World& w, int l) {
+  const LevelInfo li = w.level_info(0, l);
+  return !w.level<float>(0, l).x_packed.empty() && li.period > 1 && li.stepped_tets >= 2 * li.pass_nodes;
+}
+
+// Corners of level l's stepped tets whose packed position (and velocity, when packed) differs from
+// the level's own.
+std::size_t stale_corners(const World& w, int l) {
+  const Level<float>& L = w.level<float>(0, l);
+  std::size_t stale = 0;
+  for (const Range& r : L.stepped_runs)
+    for (std::size_t t = r.begin; t < r.end; ++t)
+      for (int a = 0; a < 4; ++a) {
+        const auto n = std::size_t(L.tet[a][t]);
+        for (int k = 0; k < 3; ++k) {
+          stale += L.x_packed[4 * n + std::size_t(k)] != L.x[k][n];
+          if (!L.v_packed.empty()) stale += L.v_packed[4 * n + std::size_t(k)] != L.v[k][n];
+        }
+      }
+  return stale;
+}
+
+TEST(WindowPack, EveryCornerOfAnOpenWindowReadsWhatItsLevelHolds) {
+  World w = three_level_bar();
+  ASSERT_EQ(w.level_count(0), 3);
+  bool any = false;
+  for (int l = 0; l < 3; ++l) any |= packs(w, l);
+  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "packed corners do not pay with these kernels (ISA)";
+  ASSERT_TRUE(any) << "no level of the bar packs its windows: the test would check nothing";
+  std::size_t checked = 0;
+  std::int64_t ticks = 0;  // fine ticks: a step takes substeps() of them (the deformation monitor may sub-step)
+  for (int i = 0; i < 64; ++i) {
+    ticks += w.substeps();
+    w.step();
+    const std::int64_t tick = ticks - 1;  // the last one run
+    for (int l = 0; l < 3; ++l) {
+      const int p = w.level_info(0, l).period;
+      // The window is open after this tick and its first slices have run (and packed).
+      if (!packs(w, l) || tick % p == p - 1 || tick % p == 0) continue;
+      EXPECT_EQ(stale_corners(w, l), 0u) << "level " << l << ", tick " << tick;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 8u);
+}
+
+TEST(WindowPack, AHostThatTakesALevelBetweenStepsIsReadAtTheNextTick) {
+  World w = three_level_bar();
+  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "packed corners do not pay with these kernels (ISA)";
+  ASSERT_TRUE(packs(w, 0));
+  const int p = w.level_info(0, 0).period;
+  ASSERT_GE(p, 4);
+  for (int i = 0; i < 4 * p + 1; ++i) w.step();  // the coarsest level's window open, its first slice run
+  Level<float>& L = w.level<float>(0, 0);
+  std::size_t node = L.node_count;
+  for (std::size_t n = 0; n < L.node_count && node == L.node_count; ++n)
+    if (L.state[n] == kNodeFree) node = n;
+  ASSERT_LT(node, L.node_count);
+  L.x[2][node] += 1e-3f;  // m
+  L.v[2][node] += 0.01f;  // m/s
+  w.step();  // still within the window (its second tick)
+  EXPECT_EQ(stale_corners(w, 0), 0u);
+}
+
+TEST(WindowPack, TakingTheLevelsWithoutWritingThemChangesNothing) {
+  World quiet = three_level_bar(), host = three_level_bar();
+  for (int i = 0; i < 48; ++i) {
+    quiet.step();
+    for (int l = 0; l < 3; ++l) (void)host.level<float>(0, l);  // each window packed again
+    host.step();
+  }
+  EXPECT_EQ(quiet.state_hash(), host.state_hash());
+}
+
+}  // namespace
+}  // namespace pliant
