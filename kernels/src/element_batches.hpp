@@ -125,11 +125,11 @@ __attribute__((always_inline)) inline Mat3<typename simd::Pack<T>::V> corotated_
   using V = typename simd::Pack<T>::V;
   const Mat3<V> F[1] = {corner_gradient(e.x, e.g)};
   V q[1][4];
-  for (int k = 0; k < 4; ++k) q[0][k] = at.load(c.rotation[k]);
+  for (int k = 0; k < 4; ++k) q[0][k] = at.rotation(c, k);
   Mat3<V> Rb[1];
   extract_rotation_batches<T, 1>(F, q, Rb);
   if constexpr (Keep)
-    for (int k = 0; k < 4; ++k) at.store(c.rotation[k], q[0][k]);
+    for (int k = 0; k < 4; ++k) at.store_rotation(c, k, q[0][k]);
   R = Rb[0];
   Mat3<V> eps;
   if constexpr (Damp == Damping::rayleigh) {

@@ -91,8 +91,9 @@ namespace {
 
 // One corotational tet's ratio: the scalar code (element_stiffness_ratio_corotational_scalar,
 // and the lanes' fallback for tets off the fast path).
+// at: where its rotation is (ElementContext::listed_rotation[k][at] when set, else rotation[k][t]).
 template <class T>
-double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
+double corotational_ratio(const ElementContext<T>& c, std::size_t t, std::size_t at) {
   const double lambda = double(c.lambda), mu = double(c.mu);
   const double rest = 3 * lambda + 2 * mu;  // Pa: the scaling block's largest eigenvalue, at any F
   TetLocal<T> e;
@@ -101,7 +102,8 @@ double corotational_ratio(const ElementContext<T>& c, std::size_t t) {
   const Mat3<T> F = detail::corner_gradient(e.x, e.g);
   // The rotation the last force pass stored (one step old): close enough for a monitor, and the
   // rotation iteration would cost more than the rest of this pass.
-  const T q[4] = {c.rotation[0][t], c.rotation[1][t], c.rotation[2][t], c.rotation[3][t]};
+  T q[4];
+  for (int k = 0; k < 4; ++k) q[k] = c.listed_rotation[k] ? c.listed_rotation[k][at] : c.rotation[k][t];
   const Mat3<T> R = detail::quat_to_matrix(q);
   double RtF[9];
   sym_to_double(detail::mul_tn(R, F), RtF);
@@ -147,7 +149,7 @@ typename simd::Pack<T>::M corotational_fast_lanes(const ElementContext<T>& c, co
     for (int k = 0; k < 3; ++k) e.g[a][k] = at.grad(c, 3 * a + k);
   const Mat3<V> F = detail::corner_gradient(e.x, e.g);
   V q[4];
-  for (int k = 0; k < 4; ++k) q[k] = at.load(c.rotation[k]);
+  for (int k = 0; k < 4; ++k) q[k] = at.rotation(c, k);
   const Mat3<V> RtF = detail::mul_tn(detail::quat_to_matrix(q), F);
   if constexpr (std::is_same_v<T, double>) {
     // The scalar test itself (sym_to_double, then - I, squares summed in the same order).
@@ -200,7 +202,7 @@ void corotational_ratios(const ElementContext<T>& c, const std::int32_t* ids, Ra
       if (fast[l]) {
         if constexpr (Ones) out(tet, 1.0);
       } else {
-        out(tet, corotational_ratio(c, tet));
+        out(tet, corotational_ratio(c, tet, t + std::size_t(l)));
       }
     }
   }
@@ -229,7 +231,7 @@ double element_stiffness_ratio_corotational_max_listed(const ElementContext<T>& 
 
 template <class T>
 void element_stiffness_ratio_corotational_scalar(const ElementContext<T>& c, Range r, double* ratio) {
-  for (std::size_t t = r.begin; t < r.end; ++t) ratio[t] = corotational_ratio(c, t);
+  for (std::size_t t = r.begin; t < r.end; ++t) ratio[t] = corotational_ratio(c, t, t);
 }
 
 template <class T>

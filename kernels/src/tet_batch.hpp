@@ -60,6 +60,9 @@ struct ConsecutiveTets {
   void corners(const ElementContext<T>& c, int a, std::int32_t out[W]) const { indices(c.tet[a], out); }
   V grad(const ElementContext<T>& c, int q) const { return load(c.grad[q]); }
   V volume(const ElementContext<T>& c) const { return load(c.volume); }
+  // Component k of the corotational warm start (ElementContext::rotation), and its store.
+  V rotation(const ElementContext<T>& c, int k) const { return load(c.rotation[k]); }
+  void store_rotation(const ElementContext<T>& c, int k, const V& v) const { store(c.rotation[k], v); }
 
   // out[l] = p[min(l, count - 1)]: contiguous indices, lanes past count repeating the last.
   static void load_indices(const std::int32_t* p, int count, std::int32_t out[W]) {
@@ -117,6 +120,17 @@ struct ListedTets {
   }
   V volume(const ElementContext<T>& c) const {
     return c.listed_volume ? simd::load(c.listed_volume + first, count) : load(c.volume);
+  }
+  // The warm start, from the list-order copy when the context has one (ElementContext::listed_rotation).
+  V rotation(const ElementContext<T>& c, int k) const {
+    return c.listed_rotation[k] ? simd::load(c.listed_rotation[k] + first, count) : load(c.rotation[k]);
+  }
+  void store_rotation(const ElementContext<T>& c, int k, const V& v) const {
+    if (c.listed_rotation[k]) {
+      simd::store(c.listed_rotation[k] + first, count, v);
+    } else {
+      store(c.rotation[k], v);
+    }
   }
 };
 

@@ -215,8 +215,11 @@ TEST(KernelBatches, ElementPassesGiveTheSameBitsForAnySplitDouble) {
 // as a listed level's in the engine.
 // forces_listed: the corner forces stored by list position (ElementContext::listed_corner_forces,
 // as a listed level of the step keeps them), each the bits of its tet's in the range pass.
+// rotations_listed: the warm starts read and written in list order (ElementContext::
+// listed_rotation), written back by tet after the passes, as the step does.
 template <class T>
-void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool forces_listed = false) {
+void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool forces_listed = false,
+                  bool rotations_listed = false) {
   for (Model m : {Model::linear, Model::stvk, Model::corotational, Model::springs}) {
     Strip<T> whole(203, 5), listed(203, 5);
     whole.damp(damped);
@@ -232,6 +235,7 @@ void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool fo
     std::mt19937 rng(3);
     std::shuffle(ids.begin(), ids.end(), rng);
     if (rest_listed) listed.list_rest(ids);
+    if (rotations_listed) listed.list_rotations(ids);
     listed.c.listed_corner_forces = forces_listed;
     for (std::size_t i = 0; i < ids.size();) {  // cuts of 7, 13, 1, 32, ... list positions
       static const std::size_t cuts[] = {7, 13, 1, 32, 5, 64, 3};
@@ -239,6 +243,7 @@ void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool fo
       listed.forces_listed(m, ids, Range{i, e});
       i = e;
     }
+    if (rotations_listed) listed.write_back_rotations(ids);
     std::size_t checked = 0;
     const Strip<T> fresh(203, 5);  // the warm starts before any pass
     for (std::size_t t = 0; t < listed.nt; ++t) {
@@ -260,9 +265,9 @@ void check_listed(Damp<T> damped, bool packed, bool rest_listed = false, bool fo
 }
 
 template <class T>
-void check_listed_every_damping(bool rest_listed, bool forces_listed) {
+void check_listed_every_damping(bool rest_listed, bool forces_listed, bool rotations_listed = false) {
   for (auto d : {Damp<T>::none, Damp<T>::viscous, Damp<T>::rayleigh})
-    for (bool packed : {false, true}) check_listed<T>(d, packed, rest_listed, forces_listed);
+    for (bool packed : {false, true}) check_listed<T>(d, packed, rest_listed, forces_listed, rotations_listed);
 }
 
 TEST(KernelBatches, ListedPassesGiveEachTetTheBitsOfTheRangePassFloat) { check_listed_every_damping<float>(false, false); }
@@ -275,6 +280,11 @@ TEST(KernelBatches, ListedPassesWithRestDataInListOrderGiveTheSameBits) {
 TEST(KernelBatches, ListedPassesStoringForcesByListPositionGiveTheSameBits) {
   check_listed_every_damping<float>(true, true);
   check_listed_every_damping<double>(true, true);
+}
+
+TEST(KernelBatches, ListedPassesWithRotationsInListOrderGiveTheSameBits) {
+  check_listed_every_damping<float>(true, true, true);
+  check_listed_every_damping<double>(true, true, true);
 }
 
 // Corner positions (and, with velocities, corner velocities) read from the interleaved copies
@@ -382,6 +392,14 @@ void check_energy_lanes() {
   std::shuffle(ids.begin(), ids.end(), std::mt19937(4));
   element_energy_corotational_listed(s.c, ids.data(), Range{0, ids.size() / 2}, listed.data());
   element_energy_corotational_listed(s.c, ids.data(), Range{ids.size() / 2, ids.size()}, listed.data());
+  // The same with the warm starts in list order (ElementContext::listed_rotation), never written.
+  std::vector<double> listed_rotations(s.nt, -1);
+  s.list_rotations(ids);
+  element_energy_corotational_listed(s.c, ids.data(), Range{0, ids.size()}, listed_rotations.data());
+  EXPECT_TRUE(same_bits(listed_rotations, listed));
+  for (int k = 0; k < 4; ++k)
+    for (std::size_t i = 0; i < ids.size(); ++i) EXPECT_EQ(s.listed_rot[k][i], fresh.rot[k][std::size_t(ids[i])]);
+  s.list_rotations({});
   std::vector<bool> in(s.nt, false);
   for (auto t : ids) in[std::size_t(t)] = true;
   std::size_t positive = 0;

@@ -167,6 +167,11 @@ void check_lanes(std::size_t n, unsigned seed, bool poison) {
     // The same with the rest data copied in list order (a listed level's, ElementContext::listed_tet ...).
     m.list_rest(ids);
     EXPECT_EQ(element_stiffness_ratio_corotational_max_listed(m.c, ids.data(), r), expect) << r.begin << ".." << r.end;
+    // And the rotations in list order (ElementContext::listed_rotation), the lanes' and the scalar
+    // fallback's: the same ratios.
+    m.list_rotations(ids);
+    EXPECT_EQ(element_stiffness_ratio_corotational_max_listed(m.c, ids.data(), r), expect) << r.begin << ".." << r.end;
+    m.list_rotations({});
     m.list_rest({});
     pieces_above += expect > 1;
     i = r.end;

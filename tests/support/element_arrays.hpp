@@ -60,6 +60,22 @@ struct ElementArrays {
     for (int q = 0; q < 9; ++q) c.listed_grad[q] = on ? listed_grad[q].data() : nullptr;
     for (int a = 0; a < 4; ++a) c.listed_tet[a] = on ? listed_tet[a].data() : nullptr;
   }
+
+  // The rotations of the tets ids in list order, as Simulation::prepare copies a corotational
+  // listed level's (ElementContext::listed_rotation), and c pointed at them (an empty list clears
+  // the pointers); write_back_rotations copies them back to rot, by tet, as the step does.
+  std::vector<T> listed_rot[4];
+  void list_rotations(const std::vector<std::int32_t>& ids) {
+    for (int k = 0; k < 4; ++k) {
+      listed_rot[k].clear();
+      for (const std::int32_t t : ids) listed_rot[k].push_back(rot[k][std::size_t(t)]);
+      c.listed_rotation[k] = ids.empty() ? nullptr : listed_rot[k].data();
+    }
+  }
+  void write_back_rotations(const std::vector<std::int32_t>& ids) {
+    for (int k = 0; k < 4; ++k)
+      for (std::size_t i = 0; i < ids.size(); ++i) rot[k][std::size_t(ids[i])] = listed_rot[k][i];
+  }
 };
 
 }  // namespace pliant::test

@@ -39,7 +39,11 @@ struct Level {
   AlignedVector<std::int32_t> tet[4];  // corner node indices, positive orientation at rest
   AlignedVector<T> volume;           // rest volume (m^3)
   AlignedVector<T> grad[9];          // rest gradients of phi_1..3 (1/m), rows of Dm^-1
-  AlignedVector<T> rotation[4];      // corotational: element rotation quaternion (w,x,y,z); empty otherwise
+  // corotational: element rotation quaternion (w,x,y,z), the force pass's warm start; empty
+  // otherwise. A level stepped from a list (LevelInfo::listed) keeps its stepped tets' in list order
+  // in the step, written back here at each change of resolution (and whenever the step is
+  // prepared again): between those, its entries may be older than the step's.
+  AlignedVector<T> rotation[4];
   // Per-tet corner forces of the element pass (N), [3c + k][tet], one block. A level whose step
   // lists its stepped tets (LevelInfo::listed) keeps theirs in the step's own arrays, in list
   // order, and does not write them here; zero for the tets a level does not step.

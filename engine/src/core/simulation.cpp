@@ -72,6 +72,13 @@ void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js) {
   for (int a = 0; a < 4; ++a) js.ec.listed_tet[a] = js.listed_tet[a].data();
   for (int q = 0; q < 9; ++q) js.ec.listed_grad[q] = js.listed_grad[q].data();
   js.ec.listed_volume = js.listed_volume.data();
+  if (!L.rotation[0].empty()) {  // corotational: the warm starts in list order too
+    for (int k = 0; k < 4; ++k) {
+      js.listed_rotation[k].resize(n);
+      for (std::size_t i = 0; i < n; ++i) js.listed_rotation[k][i] = L.rotation[k][std::size_t(js.stepped[i])];
+      js.ec.listed_rotation[k] = js.listed_rotation[k].data();
+    }
+  }
   // The corner forces by list position, zero until the level's first element pass writes them
   // (its gather runs on the ticks it steps, after that pass).
   js.listed_corner_force.assign(n, T(0));
@@ -116,8 +123,19 @@ void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& j
 }
 
 template <class T>
+void Simulation<T>::write_back_rotations() {
+  for (LevelJobState<T>& js : job_state_) {
+    if (js.stepped.empty() || !js.ec.listed_rotation[0]) continue;
+    Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
+    for (int k = 0; k < 4; ++k)
+      for (std::size_t i = 0; i < js.stepped.size(); ++i) L.rotation[k][std::size_t(js.stepped[i])] = js.listed_rotation[k][i];
+  }
+}
+
+template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
+  write_back_rotations();  // the lists are made again below, from Level::rotation
   // The corner forces of the listed levels, kept by list position: a prepare between two steps in
   // the middle of a level's window (World::add_body, when the tick stays) must keep the slices the
   // level has computed since the window began, which its gather sums at the window's end. (A change
@@ -656,7 +674,13 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // The energy before is measured only where the decisions change something (most decision
     // points change nothing, and it reads every stepped tet).
     double e_before = 0;
-    if (!adapt_body(body, t + h, near, [&] { e_before = body_energy(&exec, body); }, &exec)) {
+    // (The listed levels' rotations written back first: the energy after the change reads them by
+    // tet, over the new lists.)
+    auto before_change = [&] {
+      write_back_rotations();
+      e_before = body_energy(&exec, body);
+    };
+    if (!adapt_body(body, t + h, near, before_change, &exec)) {
       clock_check();
       continue;
     }
@@ -773,6 +797,10 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
     list_stepped(L, energy_ids);
     const std::int32_t* ids = energy_ids.data();
     const std::size_t n = energy_ids.size();
+    // The job's list (the same, unless a change of resolution is being measured before prepare()):
+    // its rotations in list order are the current ones; else Level::rotation is (written back).
+    if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[0] && js->stepped == energy_ids)
+      for (int k = 0; k < 4; ++k) ec.listed_rotation[k] = js->ec.listed_rotation[k];
     if (exec)
       exec->parallel_for(n, pass_grain(n, kTetGrain), [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
     else
@@ -880,6 +908,10 @@ double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) 
         for (int k = 0; k < 4; ++k) {
           rotation[k].assign(L.rotation[k].begin(), L.rotation[k].end());
           ec.rotation[k] = rotation[k].data();
+          // A listed level's current rotations are its job's list copy (write_back_rotations).
+          if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[k])
+            for (std::size_t i = 0; i < js->stepped.size(); ++i)
+              rotation[k][std::size_t(js->stepped[i])] = js->listed_rotation[k][i];
         }
       const ElementPass<T> pass = force_kernel<T>(L.model);
       for (const Range& run : L.stepped_runs)
@@ -963,6 +995,7 @@ double Simulation<T>::stiffness_ratio(Executor& exec) const {
         for (int a = 0; a < 4; ++a) ec.listed_tet[a] = job_ec.listed_tet[a];
         for (int q = 0; q < 9; ++q) ec.listed_grad[q] = job_ec.listed_grad[q];
         ec.listed_volume = job_ec.listed_volume;
+        for (int k = 0; k < 4; ++k) ec.listed_rotation[k] = job_ec.listed_rotation[k];  // the current ones
         exec.parallel_for(chunks, 1, [&](Range cr) {
           for (std::size_t i = cr.begin; i < cr.end; ++i)
             top[i] = element_stiffness_ratio_corotational_max_listed(ec, ids, Range{i * grain, std::min(n, (i + 1) * grain)});

@@ -168,6 +168,12 @@ struct LevelJobState {
   // gathering them from tets scattered over its mesh. Made by prepare() from `stepped`.
   AlignedVector<std::int32_t> listed_tet[4];
   AlignedVector<T> listed_grad[9], listed_volume;
+  // A corotational listed level's warm-start rotations in list order (ElementContext::
+  // listed_rotation): its force passes read and write them here instead of gathering and
+  // scattering Level::rotation (on the 50k organ's coarser levels, a sixth of the listed pass in
+  // perf samples). They are the level's current rotations: Simulation::write_back_rotations copies
+  // them to Level::rotation before anything reads those by tet (a new list, the energy of a change).
+  AlignedVector<T> listed_rotation[4];
   // A listed level's corner forces in list order (ElementContext::listed_corner_forces; ec and gc
   // point at them, and gather_incidence codes list positions, 4 x position + corner): a batch
   // stores them with one vector store per array, where scattering them to tets spread over the
@@ -330,6 +336,14 @@ class Simulation {
   // at their next slice (LevelJobState::window_pack), so that what it wrote between two steps is
   // read by the slices after them, as without the pack.
   void levels_given_to_host() { packs_stale_ = true; }
+  // The listed levels' rotations (LevelJobState::listed_rotation) copied to Level::rotation, so that
+  // a pass reading them by tet reads the current ones. O(listed tets).
+  void write_back_rotations();
+  // The job state of a level of one of `bodies` (null before the first prepare()).
+  const LevelJobState<T>* job_of(const SimBody<T>& body, const Level<T>& L) const {
+    const auto b = std::size_t(&body - bodies.data()), l = std::size_t(&L - body.levels.data());
+    return b < job_of_body_.size() ? &job_state_[job_of_body_[b] + l] : nullptr;
+  }
 
  private:
   bool packs_stale_ = false;

@@ -44,10 +44,16 @@ struct ElementContext {
   // grad[q][tets[i]], listed_volume[i] = volume[tets[i]], for the list the kernels are given
   // (a multiresolution level's stepped tets: Simulation::prepare copies them once per change).
   // A batch then loads them instead of gathering them from tets scattered over the mesh. Null:
-  // gathered. Only the rest data: the rotations stay per tet.
+  // gathered.
   const std::int32_t* listed_tet[4] = {};
   const T* listed_grad[9] = {};
   const T* listed_volume = nullptr;
+  // Optional, for the corotational *_listed passes: the warm-start rotations in list order,
+  // listed_rotation[k][i] for the list's i-th tet, read (and written back by the force pass) in
+  // place of rotation[k][tets[i]]: one vector load and store per component instead of a gather
+  // and a scatter. The caller keeps them and writes them back to `rotation` when the list changes
+  // or another pass reads the rotations by tet (Simulation::write_back_rotations). Null: per tet.
+  T* listed_rotation[4] = {};
   // Optional, for the *_listed force passes: true when corner_force is in list order,
   // corner_force[3*c + k][i] for the list's i-th tet (arrays as long as the list), so that a
   // batch stores its forces in one vector store per array instead of scattering them over the
