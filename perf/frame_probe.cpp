@@ -44,7 +44,7 @@ double quantile(std::vector<double> v, double q) {
 int usage() {
   std::fprintf(stderr,
                "usage: frame_probe SCENE [--set PATH=VALUE]... [--duration S] [--threads N] [--scale X] [--cap LEVEL] "
-               "[--budget SPLITS] [--frame S]\n");
+               "[--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S]\n");
   return 2;
 }
 
