@@ -4,6 +4,8 @@
 // level's stepped tets must read what the level holds (the element passes load the copy instead of
 // gathering x and v, and must compute the same bits); a host that takes a level between steps
 // (World::level) and writes it is read at the next tick; taking it without writing changes nothing.
+// And the rotations a listed level keeps in list order (LevelJobState::listed_rotation): the
+// reports that read rotations by tet (the snapshot's stresses) start from the current ones.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -116,6 +118,55 @@ TEST(WindowPack, TakingTheLevelsWithoutWritingThemChangesNothing) {
     host.step();
   }
   EXPECT_EQ(quiet.state_hash(), host.state_hash());
+}
+
+// An adaptive bar (the hierarchy's tet order kept) bending under gravity: the levels it refines
+// step regions of their meshes in short runs, so they are stepped from lists (LevelInfo::listed).
+World adaptive_bar() {
+  WorldDef wd;
+  wd.precision = Precision::float32;
+  World w(wd);
+  BodyDef b;
+  b.mesh.min = {0, 0, 0};
+  b.mesh.max = {0.4, 0.1, 0.1};
+  b.mesh.cells = {32, 8, 8};
+  b.material.young = 1e5;
+  RegionDef clamp;
+  clamp.min = {-1, -1, -1};
+  clamp.max = {1e-6, 1, 1};
+  b.fixed.push_back(clamp);
+  b.multiresolution.levels = 3;
+  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
+  w.add_body(b);
+  return w;
+}
+
+TEST(WindowPack, TheSnapshotsStressesStartFromAListedLevelsCurrentRotations) {
+  World w = adaptive_bar();
+  int level = -1;  // a listed level, once the bar has refined
+  for (int i = 0; i < 2000 && level < 0; ++i) {
+    w.step();
+    for (int l = 0; l < w.level_count(0) && level < 0; ++l)
+      if (w.level_info(0, l).listed && w.level_info(0, l).stepped_tets > 0) level = l;
+  }
+  ASSERT_GE(level, 0) << "the test needs a listed level";
+  for (int i = 0; i < 50; ++i) w.step();  // its rotations move on from the list's copy
+  ASSERT_TRUE(w.level_info(0, level).listed);
+  const World::Snapshot listed = w.snapshot(0, level);
+  // Another body prepares the step again, which writes the listed rotations back to
+  // Level::rotation: the snapshot must not change.
+  BodyDef other;
+  other.name = "other";
+  other.mesh.min = {1, 1, 1};
+  other.mesh.max = {1.02, 1.02, 1.02};
+  other.mesh.cells = {1, 1, 1};
+  w.add_body(other);
+  const World::Snapshot written_back = w.snapshot(0, level);
+  ASSERT_EQ(listed.stress.size(), written_back.stress.size());
+  ASSERT_GT(listed.stress.size(), 0u);
+  std::size_t differ = 0;
+  for (std::size_t i = 0; i < listed.stress.size(); ++i) differ += listed.stress[i] != written_back.stress[i];
+  EXPECT_EQ(differ, 0u) << "of " << listed.stress.size();
 }
 
 }  // namespace

@@ -133,6 +133,15 @@ void Simulation<T>::write_back_rotations() {
 }
 
 template <class T>
+void Simulation<T>::current_rotations(const SimBody<T>& body, const Level<T>& L, AlignedVector<T> (&out)[4]) const {
+  for (int k = 0; k < 4; ++k) out[k].assign(L.rotation[k].begin(), L.rotation[k].end());
+  const LevelJobState<T>* js = job_of(body, L);
+  if (!js || !js->ec.listed_rotation[0]) return;
+  for (int k = 0; k < 4; ++k)
+    for (std::size_t i = 0; i < js->stepped.size(); ++i) out[k][std::size_t(js->stepped[i])] = js->listed_rotation[k][i];
+}
+
+template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
   write_back_rotations();  // the lists are made again below, from Level::rotation
@@ -904,15 +913,10 @@ double Simulation<T>::centred_kinetic(Executor& exec, double h, double& stored) 
         corner[q].assign(L.tet_count, T(0));
         ec.corner_force[q] = corner[q].data();
       }
-      if (!L.rotation[0].empty())
-        for (int k = 0; k < 4; ++k) {
-          rotation[k].assign(L.rotation[k].begin(), L.rotation[k].end());
-          ec.rotation[k] = rotation[k].data();
-          // A listed level's current rotations are its job's list copy (write_back_rotations).
-          if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[k])
-            for (std::size_t i = 0; i < js->stepped.size(); ++i)
-              rotation[k][std::size_t(js->stepped[i])] = js->listed_rotation[k][i];
-        }
+      if (!L.rotation[0].empty()) {  // a listed level's current ones are its job's list copy
+        current_rotations(body, L, rotation);
+        for (int k = 0; k < 4; ++k) ec.rotation[k] = rotation[k].data();
+      }
       const ElementPass<T> pass = force_kernel<T>(L.model);
       for (const Range& run : L.stepped_runs)
         exec.parallel_for(run.size(), pass_grain(run.size(), kTetGrain),
@@ -1045,18 +1049,27 @@ bool Simulation<T>::can_stiffen() const {
 template class Simulation<float>;
 template class Simulation<double>;
 
-// Used by World::snapshot.
+// Used by World::snapshot. The corotational stresses start their rotations from the current ones
+// (a listed level's are its job's list copy: Simulation::current_rotations).
 template <class T>
-void cauchy_stress(Executor& exec, const SimBody<T>& body, const Level<T>& L, std::vector<double>& sigma9) {
+void cauchy_stress(Executor& exec, const Simulation<T>& sim, const SimBody<T>& body, const Level<T>& L,
+                   std::vector<double>& sigma9) {
   sigma9.resize(9 * L.tet_count);
   ElementContext<T> ec = element_context(L);
   CurrentState<T> now;
   use_current_state(body, L, ec, now);
+  AlignedVector<T> rotation[4];
+  if (!L.rotation[0].empty()) {
+    sim.current_rotations(body, L, rotation);
+    for (int k = 0; k < 4; ++k) ec.rotation[k] = rotation[k].data();
+  }
   const int measure = L.model == ForceModel::stvk ? 1 : L.model == ForceModel::corotational ? 2 : 0;
   double* out = sigma9.data();
   exec.parallel_for(L.tet_count, kTetGrain, [&](Range r) { element_cauchy_stress(ec, r, measure, out); });
 }
-template void cauchy_stress<float>(Executor&, const SimBody<float>&, const Level<float>&, std::vector<double>&);
-template void cauchy_stress<double>(Executor&, const SimBody<double>&, const Level<double>&, std::vector<double>&);
+template void cauchy_stress<float>(Executor&, const Simulation<float>&, const SimBody<float>&, const Level<float>&,
+                                   std::vector<double>&);
+template void cauchy_stress<double>(Executor&, const Simulation<double>&, const SimBody<double>&, const Level<double>&,
+                                    std::vector<double>&);
 
 }  // namespace pliant::detail

@@ -339,6 +339,9 @@ class Simulation {
   // The listed levels' rotations (LevelJobState::listed_rotation) copied to Level::rotation, so that
   // a pass reading them by tet reads the current ones. O(listed tets).
   void write_back_rotations();
+  // Level::rotation with a listed level's current rotations (its job's list copy) laid over, into
+  // out: what a report reading the rotations by tet starts from (the energy, the stresses).
+  void current_rotations(const SimBody<T>& body, const Level<T>& L, AlignedVector<T> (&out)[4]) const;
   // The job state of a level of one of `bodies` (null before the first prepare()).
   const LevelJobState<T>* job_of(const SimBody<T>& body, const Level<T>& L) const {
     const auto b = std::size_t(&body - bodies.data()), l = std::size_t(&L - body.levels.data());

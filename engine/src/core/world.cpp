@@ -22,7 +22,8 @@ namespace pliant {
 
 namespace detail {
 template <class T>
-void cauchy_stress(Executor& exec, const SimBody<T>& body, const Level<T>& L, std::vector<double>& sigma9);
+void cauchy_stress(Executor& exec, const Simulation<T>& sim, const SimBody<T>& body, const Level<T>& L,
+                   std::vector<double>& sigma9);
 }
 
 namespace {
@@ -1132,7 +1133,7 @@ World::Snapshot World::snapshot(BodyId b, int l) const {
         out.displacement[3 * n + k] = double(now.x[k][n]) - double(L.X[k][n]);
       }
     std::vector<double> sigma;
-    detail::cauchy_stress(impl_->exec, body, L, sigma);
+    detail::cauchy_stress(impl_->exec, s, body, L, sigma);
     // The tets the level steps (all of them for a single-level body).
     out.tets.reserve(L.stepped_count);
     out.stress.reserve(9 * L.stepped_count);
