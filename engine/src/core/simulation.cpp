@@ -674,6 +674,19 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     for (const NearShape& s : near) unresolved |= s.unresolved_contact;
     const bool due = body.adapt->forced_target >= 0 || unresolved || t + h + 1e-12 >= body.adapt->next_check;
     if (!due) continue;
+    // Energy an earlier change added and could not take back at once (a body at the bottom of its
+    // swing, bent, has little motion about its mean velocity): taken now, as far as the motion has
+    // it, half of that motion at most per decision point (never stopping the motion at once). A
+    // swinging box (stress seed 30) let 3.5 % of its energy through at two merges, under
+    // kUnpaidShare, and rose to 2.2x its energy budget; paid when its motion has it again, it stays
+    // below (Stress.AnAdaptiveSwingWhoseMergesCouldNotPayPasses).
+    if (body.adapt->owed_energy > 0) {
+      const double paid = std::min(body.adapt->owed_energy, 0.5 * motion_energy(body));
+      if (paid > 0) {
+        take_energy(body, paid);
+        body.adapt->owed_energy -= paid;
+      }
+    }
     const auto started = std::chrono::steady_clock::now();
     auto clock_check = [&] {
       const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
@@ -696,7 +709,11 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     double excess = body_energy(&exec, body) - e_before;
     if (body.adapt->undoable && excess - motion_energy(body) > kUnpaidShare * e_before)
       excess = undo_change(body, t + h) ? body_energy(&exec, body) - e_before : 0.0;
-    if (excess > 0) take_energy(body, excess);
+    if (excess > 0) {
+      const double motion = motion_energy(body);  // what take_energy can take (all of it at most)
+      take_energy(body, excess);
+      if (excess > motion) body.adapt->owed_energy += excess - motion;
+    }
     clock_check();
     adapted = true;
     relocate_probes(int(b));

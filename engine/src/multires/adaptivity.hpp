@@ -64,6 +64,9 @@ struct AdaptiveState {
   bool undoable = false;                       // the last change can be undone: it merged, no command is among
                                                // its changes, and the state before it is in scratch.before
   std::int64_t undone = 0;                     // changes undone (applied again without their merges)
+  // J: energy changes added that the body's motion could not give back at once (Simulation::step:
+  // taken from that motion at the next decision points that have it).
+  double owed_energy = 0;
   std::int64_t deferred_merges = 0;            // merges those undos dropped
   // What a decision computes, kept from one decision to the next so that a decision allocates
   // nothing once the body's arrays are sized (a fresh 0.5 MB of field on the 50k-tet organ was
