@@ -8,6 +8,7 @@
 // reports that read rotations by tet (the snapshot's stresses) start from the current ones.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cstdint>
 
 #include "pliant/world.hpp"
@@ -15,33 +16,41 @@
 namespace pliant {
 namespace {
 
-// A damped bar clamped at x = 0 with three levels: the finest steps its last fifth, the coarser
-// ones the rest (their periods 2 and 4 fine ticks), bending under gravity, so that positions and
-// velocities change from one window to the next.
-World three_level_bar() {
-  WorldDef wd;
-  wd.precision = Precision::float32;
-  wd.gravity = {0, 0, -9.81};
-  World w(wd);
+// A float bar 0.4 x 0.1 x 0.1 m of `cells`, clamped at x = 0, with three levels, under gravity.
+BodyDef clamped_bar(std::array<int, 3> cells, double young) {
   BodyDef b;
   b.mesh.min = {0, 0, 0};
   b.mesh.max = {0.4, 0.1, 0.1};
-  b.mesh.cells = {48, 12, 12};
-  b.material.young = 2e5;
-  b.material.damping.stiffness = 0.002;  // Rayleigh: the damped passes read the corners' velocities too
+  b.mesh.cells = cells;
+  b.material.young = young;
   RegionDef clamp;
   clamp.min = {-1, -1, -1};
   clamp.max = {1e-6, 1, 1};
   b.fixed.push_back(clamp);
   b.multiresolution.levels = 3;
+  return b;
+}
+World float_world_with(const BodyDef& b) {
+  WorldDef wd;
+  wd.precision = Precision::float32;
+  World w(wd);
+  w.add_body(b);
+  return w;
+}
+
+// A damped bar whose finest level steps its last fifth, the coarser ones the rest (their periods 2
+// and 4 fine ticks), bending under gravity, so that positions and velocities change from one
+// window to the next.
+World three_level_bar() {
+  BodyDef b = clamped_bar({48, 12, 12}, 2e5);
+  b.material.damping.stiffness = 0.002;  // Rayleigh: the damped passes read the corners' velocities too
   b.multiresolution.active.kind = ActiveDef::Kind::regions;
   ActiveRegionDef fine;
   fine.level = 2;
   fine.region.min = {0.32, -1, -1};
   fine.region.max = {1, 1, 1};
   b.multiresolution.active.regions.push_back(fine);
-  w.add_body(b);
-  return w;
+  return float_world_with(b);
 }
 
 // Whether level l's windows are packed (pack_pays: its stepped tets at least twice the nodes of its
@@ -73,7 +82,7 @@ TEST(WindowPack, EveryCornerOfAnOpenWindowReadsWhatItsLevelHolds) {
   ASSERT_EQ(w.level_count(0), 3);
   bool any = false;
   for (int l = 0; l < 3; ++l) any |= packs(w, l);
-  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "packed corners do not pay with these kernels (ISA)";
+  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "SKIPPED: packed corners do not pay with these kernels (ISA and precision)";
   ASSERT_TRUE(any) << "no level of the bar packs its windows: the test would check nothing";
   std::size_t checked = 0;
   std::int64_t ticks = 0;  // fine ticks: a step takes substeps() of them (the deformation monitor may sub-step)
@@ -94,7 +103,7 @@ TEST(WindowPack, EveryCornerOfAnOpenWindowReadsWhatItsLevelHolds) {
 
 TEST(WindowPack, AHostThatTakesALevelBetweenStepsIsReadAtTheNextTick) {
   World w = three_level_bar();
-  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "packed corners do not pay with these kernels (ISA)";
+  if (w.level<float>(0, 0).x_packed.empty()) GTEST_SKIP() << "SKIPPED: packed corners do not pay with these kernels (ISA and precision)";
   ASSERT_TRUE(packs(w, 0));
   const int p = w.level_info(0, 0).period;
   ASSERT_GE(p, 4);
@@ -123,22 +132,9 @@ TEST(WindowPack, TakingTheLevelsWithoutWritingThemChangesNothing) {
 // An adaptive bar (the hierarchy's tet order kept) bending under gravity: the levels it refines
 // step regions of their meshes in short runs, so they are stepped from lists (LevelInfo::listed).
 World adaptive_bar() {
-  WorldDef wd;
-  wd.precision = Precision::float32;
-  World w(wd);
-  BodyDef b;
-  b.mesh.min = {0, 0, 0};
-  b.mesh.max = {0.4, 0.1, 0.1};
-  b.mesh.cells = {32, 8, 8};
-  b.material.young = 1e5;
-  RegionDef clamp;
-  clamp.min = {-1, -1, -1};
-  clamp.max = {1e-6, 1, 1};
-  b.fixed.push_back(clamp);
-  b.multiresolution.levels = 3;
+  BodyDef b = clamped_bar({32, 8, 8}, 1e5);
   b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
-  w.add_body(b);
-  return w;
+  return float_world_with(b);
 }
 
 TEST(WindowPack, TheSnapshotsStressesStartFromAListedLevelsCurrentRotations) {
