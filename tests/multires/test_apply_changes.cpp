@@ -210,6 +210,14 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
       for (std::size_t i = 0; i < L.node_count; ++i)
         weighing += (L.state[i] == kNodeGhost || L.state[i] == kNodeInactive) && (L.mass[i] != 0 || L.inv_mass[i] != 0);
     EXPECT_EQ(weighing, 0u) << "change " << c;
+    // A level that steps no tet has no free node (what lets the energies and the motion of a change
+    // skip it: Simulation::body_energy, body_motion).
+    for (std::size_t l = 0; l < a.body.levels.size(); ++l) {
+      const auto& L = a.body.levels[l];
+      if (L.stepped_count != 0) continue;
+      EXPECT_EQ(std::count(L.state.begin(), L.state.begin() + std::ptrdiff_t(L.node_count), kNodeFree), 0)
+          << "change " << c << ", level " << l << " steps no tet";
+    }
     worst_total = std::max(worst_total, std::abs(total_mass(a.body) / expected - 1));
     // Own masses and region counts kept by the patch against those made from the full apply.
     SimBody<double> full = a.full(t);

@@ -681,9 +681,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // kUnpaidShare, and rose to 2.2x its energy budget; paid when its motion has it again, it stays
     // below (Stress.AnAdaptiveSwingWhoseMergesCouldNotPayPasses).
     if (body.adapt->owed_energy > 0) {
-      const double paid = std::min(body.adapt->owed_energy, 0.5 * motion_energy(body));
+      const BodyMotion motion = body_motion(body);
+      const double paid = std::min(body.adapt->owed_energy, 0.5 * motion.relative);
       if (paid > 0) {
-        take_energy(body, paid);
+        take_energy(body, paid, motion);
         body.adapt->owed_energy -= paid;
       }
     }
@@ -707,12 +708,14 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       continue;
     }
     double excess = body_energy(&exec, body) - e_before;
-    if (body.adapt->undoable && excess - motion_energy(body) > kUnpaidShare * e_before)
+    BodyMotion motion = body_motion(body);  // what take_energy can take (all of it at most)
+    if (body.adapt->undoable && excess - motion.relative > kUnpaidShare * e_before) {
       excess = undo_change(body, t + h) ? body_energy(&exec, body) - e_before : 0.0;
+      motion = body_motion(body);
+    }
     if (excess > 0) {
-      const double motion = motion_energy(body);  // what take_energy can take (all of it at most)
-      take_energy(body, excess);
-      if (excess > motion) body.adapt->owed_energy += excess - motion;
+      take_energy(body, excess, motion);
+      if (excess > motion.relative) body.adapt->owed_energy += excess - motion.relative;
     }
     clock_check();
     adapted = true;
@@ -846,10 +849,14 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
 // Kinetic (1/2 m v^2 of the free nodes) + elastic energy of one body, in a fixed order (J): the
 // same bits on exec's threads as on this one (add_elastic_energy). Measured twice per change of
 // resolution; on one thread it was 0.3 ms of each on the 50k-tet organ with its finest level on.
+// A level that steps no tet has no free node (its free, fixed and ghost nodes are the corners of
+// its stepped tets): skipped, as by add_elastic_energy (the organ's idle finest level, 10 700
+// nodes read for nothing, at each of the 2 energies and 2-3 motions of a change).
 template <class T>
 double Simulation<T>::body_energy(Executor* exec, const SimBody<T>& body) const {
   double e = 0;
   for (const Level<T>& L : body.levels) {
+    if (L.stepped_count == 0) continue;
     add_elastic_energy(exec, body, L, e);
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree)
@@ -858,50 +865,44 @@ double Simulation<T>::body_energy(Executor* exec, const SimBody<T>& body) const 
   return e;
 }
 
-namespace {
-// The kinetic energy of the free nodes' motion relative to their mean velocity (J), with their
-// mass (kg) and momentum (kg m/s): what take_energy can take without changing the momentum.
 template <class T>
-double relative_kinetic(const SimBody<T>& body, double& m, double p[3]) {
-  m = 0;
-  p[0] = p[1] = p[2] = 0;
-  for (const Level<T>& L : body.levels)
+typename Simulation<T>::BodyMotion Simulation<T>::body_motion(const SimBody<T>& body) const {
+  BodyMotion bm;
+  for (const Level<T>& L : body.levels) {
+    if (L.stepped_count == 0) continue;  // no free node (body_energy)
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree) {
-        m += double(L.mass[n]);
-        for (int k = 0; k < 3; ++k) p[k] += double(L.mass[n]) * double(L.v[k][n]);
+        bm.mass += double(L.mass[n]);
+        for (int k = 0; k < 3; ++k) bm.momentum[k] += double(L.mass[n]) * double(L.v[k][n]);
       }
-  if (!(m > 0)) return 0;
-  double relative = 0;
-  for (const Level<T>& L : body.levels)
+  }
+  if (!(bm.mass > 0)) return bm;
+  for (const Level<T>& L : body.levels) {
+    if (L.stepped_count == 0) continue;
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree)
         for (int k = 0; k < 3; ++k) {
-          const double u = double(L.v[k][n]) - p[k] / m;
-          relative += 0.5 * double(L.mass[n]) * u * u;
+          const double u = double(L.v[k][n]) - bm.momentum[k] / bm.mass;
+          bm.relative += 0.5 * double(L.mass[n]) * u * u;
         }
-  return relative;
-}
-}  // namespace
-
-template <class T>
-double Simulation<T>::motion_energy(const SimBody<T>& body) const {
-  double m, p[3];
-  return relative_kinetic(body, m, p);
+  }
+  return bm;
 }
 
 // Removes `excess` J from the free nodes' motion relative to their mean velocity (momentum kept), as
 // far as that motion holds it.
 template <class T>
-void Simulation<T>::take_energy(SimBody<T>& body, double excess) {
-  double m, p[3];
-  const double relative = relative_kinetic(body, m, p);
-  if (!(m > 0) || !(relative > 0)) return;
-  const double scale = std::sqrt(std::max(0.0, 1.0 - excess / relative));
-  for (Level<T>& L : body.levels)
+void Simulation<T>::take_energy(SimBody<T>& body, double excess, const BodyMotion& motion) {
+  const double m = motion.mass;
+  const double* p = motion.momentum;
+  if (!(m > 0) || !(motion.relative > 0)) return;
+  const double scale = std::sqrt(std::max(0.0, 1.0 - excess / motion.relative));
+  for (Level<T>& L : body.levels) {
+    if (L.stepped_count == 0) continue;
     for (std::size_t n = 0; n < L.node_count; ++n)
       if (L.state[n] == kNodeFree)
         for (int k = 0; k < 3; ++k) L.v[k][n] = T(p[k] / m + scale * (double(L.v[k][n]) - p[k] / m));
+  }
 }
 
 template <class T>

@@ -297,8 +297,15 @@ class Simulation {
   void elastic_energies(Executor& exec, double& elastic) const;
   double body_energy(Executor* exec, const SimBody<T>& body) const;  // kinetic + elastic of one body (J); exec may be null
   void add_elastic_energy(Executor* exec, const SimBody<T>& body, const Level<T>& L, double& sum) const;
-  void take_energy(SimBody<T>& body, double excess);   // from its motion about its mean velocity
-  double motion_energy(const SimBody<T>& body) const;  // what take_energy can take at most (J)
+  // The free nodes' mass (kg), momentum (kg m/s) and kinetic energy about their mean velocity (J):
+  // what take_energy can take at most, without changing the momentum.
+  struct BodyMotion {
+    double mass = 0, momentum[3] = {0, 0, 0}, relative = 0;
+  };
+  BodyMotion body_motion(const SimBody<T>& body) const;
+  // Takes `excess` J from the body's motion about its mean velocity (all of it at most); `motion`
+  // is body_motion(body) as the body is now (measured once for the decision and the taking).
+  void take_energy(SimBody<T>& body, double excess, const BodyMotion& motion);
   // A change of an adaptive body that merged is undone (undo_change: applied again without its
   // merges) when the energy it adds, less what take_energy can take, is more than this share of the
   // body's energy before it. The merges that made random adaptive scenes unbounded added 39% to
