@@ -101,6 +101,17 @@ int main(int argc, char** argv) {
     const auto wall0 = std::chrono::steady_clock::now();
     const double sim0 = w.time();
     std::int64_t lift_step = -1;
+    // Decision points and changes of resolution so far, over the adaptive bodies.
+    auto adapt_counts = [&] {
+      std::pair<std::int64_t, std::int64_t> n{0, 0};
+      for (std::size_t b = 0; b < w.body_count(); ++b) {
+        const World::AdaptStats st = w.adapt_stats(BodyId(b));
+        n.first += st.checks;
+        n.second += st.changes;
+      }
+      return n;
+    };
+    std::vector<double> change_us, check_us, other_us;  // step times (us) by what the step's decision point did
     for (std::int64_t i = 0; i < steps; ++i) {
       if (paced && i % per_frame == 0) {  // a frame starts: wait for its wall-clock time
         const auto due = wall0 + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -118,9 +129,27 @@ int main(int argc, char** argv) {
           if (w.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive)
             w.set_adapt_cap(BodyId(b), w.level_count(BodyId(b)) - 1);
       }
+      const auto [checks0, changes0] = adapt_counts();
       const auto a = std::chrono::steady_clock::now();
       w.step();
       step_us.push_back(1e6 * std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count());
+      const auto [checks1, changes1] = adapt_counts();
+      (changes1 != changes0 ? change_us : checks1 != checks0 ? check_us : other_us).push_back(step_us.back());
+    }
+    // What a decision point costs: its step against the steps without one (the difference is the
+    // decision's, or the change's, own cost, give or take what the tick's position adds).
+    auto summary = [](const char* what, std::vector<double> us) {
+      double sum = 0;
+      for (double u : us) sum += u;
+      fmt::print("  {}: {}, mean {:.1f} us, p50 {:.1f}, p99 {:.1f}, max {:.1f}\n", what, us.size(),
+                 us.empty() ? 0.0 : sum / double(us.size()), quantile(us, 0.5), quantile(us, 0.99),
+                 us.empty() ? 0.0 : *std::max_element(us.begin(), us.end()));
+    };
+    if (!change_us.empty() || !check_us.empty()) {
+      fmt::print("steps by their decision point (adaptive bodies):\n");
+      summary("steps that changed the resolution", change_us);
+      summary("steps that decided without a change", check_us);
+      summary("steps without a decision", other_us);
     }
     std::vector<double> frame_us;
     for (std::size_t i = 0; i + std::size_t(per_frame) <= step_us.size(); i += std::size_t(per_frame)) {
