@@ -10,27 +10,10 @@
 
 #include "../collision/closest_points.hpp"
 #include "../core/simulation.hpp"
+#include "pliant/kernels/strain_measure.hpp"
 
 namespace pliant::detail {
 namespace {
-
-// The deformation gradient F of tet t of level L at its current corner positions `x` (x, y, z arrays).
-template <class T>
-std::array<double, 9> deformation_gradient(const Level<T>& L, std::size_t t, const std::vector<double>* x) {
-  double d[3][3], g[3][3];
-  const auto n0 = std::size_t(L.tet[0][t]);
-  for (int c = 0; c < 3; ++c) {
-    const auto n = std::size_t(L.tet[c + 1][t]);
-    for (int i = 0; i < 3; ++i) {
-      d[c][i] = x[i][n] - x[i][n0];
-      g[c][i] = double(L.grad[3 * c + i][t]);
-    }
-  }
-  std::array<double, 9> F;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) F[std::size_t(3 * i + j)] = d[0][i] * g[0][j] + d[1][i] * g[1][j] + d[2][i] * g[2][j];
-  return F;
-}
 
 // Position and velocity of every simulated (not inactive) node of every level now (ghosts where
 // their sources are, as current_state gives them: summed in double, rounded to T), in double, into
@@ -261,23 +244,14 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
       for (std::size_t e = run.begin; e < run.end; ++e) ids.push_back(std::int32_t(e));
     const std::size_t chunks = (ids.size() + kChunk - 1) / kChunk;
     sc.chunk_peak.assign(chunks, 0.0);
+    // F and the squared strains in vector lanes (kernels: the same bits as one tet at a time).
+    StrainMeasureContext<T> smc;
+    for (int a = 0; a < 4; ++a) smc.tet[a] = L.tet[a].data();
+    for (int q = 0; q < 9; ++q) smc.grad[q] = L.grad[q].data();
+    for (int k = 0; k < 3; ++k) smc.x[k] = xl[k].data();
     auto measure_chunks = [&](Range r) {
-      for (std::size_t c = r.begin; c < r.end; ++c) {
-        double top = 0;
-        for (std::size_t i = c * kChunk; i < std::min(ids.size(), (c + 1) * kChunk); ++i) {
-          const auto e = std::size_t(ids[i]);
-          F[e] = deformation_gradient(L, e, xl);
-          double e2 = 0;
-          for (int a = 0; a < 3; ++a)
-            for (int b = 0; b < 3; ++b) {
-              double q = a == b ? -1.0 : 0.0;  // (F^T F - I)_ab
-              for (int k = 0; k < 3; ++k) q += F[e][std::size_t(3 * k + a)] * F[e][std::size_t(3 * k + b)];
-              e2 += 0.25 * q * q;
-            }
-          top = std::max(top, e2);
-        }
-        sc.chunk_peak[c] = top;
-      }
+      for (std::size_t c = r.begin; c < r.end; ++c)
+        sc.chunk_peak[c] = deformation_gradients_listed(smc, ids.data(), Range{c * kChunk, std::min(ids.size(), (c + 1) * kChunk)}, F.data());
     };
     // In parallel from kSerialBelow tets, as the passes: below, the fork-join cost more than it
     // saved (the 50k-tet organ at its middle level, 667 + 342 tets stepped: 56-57 us a decision in
