@@ -620,7 +620,8 @@ ActivationState::Changes ActivationState::update() {
 // The dangling rule of refine_dangling at one tet, and at its neighbours when it changes; the tets
 // it refines are appended to `refined_now`.
 void ActivationState::refine_rule(int l, std::int32_t t0, std::vector<std::int32_t>& refined_now) {
-  std::vector<std::int32_t> work{t0};
+  std::vector<std::int32_t>& work = rule_work_;
+  work.assign(1, t0);
   auto& pr = present_[std::size_t(l)];
   auto& rf = refined_[std::size_t(l)];
   while (!work.empty()) {

@@ -149,6 +149,7 @@ class ActivationState {
   std::vector<std::vector<std::int32_t>> dirty_targets_;  // per level
   std::vector<GhostSource> acc_;                          // evaluate_node's scratch (its sources)
   std::vector<std::int32_t> scratch_tets_;  // update()'s scratch
+  std::vector<std::int32_t> rule_work_;     // refine_rule's stack (one per call was a malloc for each tet of a region)
   std::vector<std::size_t> straddling_;                   // per level: its tets that straddle coarser ones
   // covered()'s answers within one level's evaluation (0: not asked, 1: covered, 2: not), and the
   // nodes asked (forget_covered() clears them); marks that dedupe update()'s candidates.
