@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <fmt/format.h>
 
 #include "pliant/kernels/element_stiffness.hpp"
@@ -696,24 +697,30 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       body.adapt->check_seconds += s;
       body.adapt->check_max_seconds = std::max(body.adapt->check_max_seconds, s);
     };
-    // The energy before is measured only where the decisions change something (most decision
-    // points change nothing, and it reads every stepped tet).
-    double e_before = 0;
-    // (The listed levels' rotations written back first: the energy after the change reads them by
-    // tet, over the new lists.)
+    // The state before is kept only where the decisions change something (most decision points
+    // change nothing). (The listed levels' rotations written back first: the energies before and
+    // after the change read them by tet.)
     auto before_change = [&] {
       write_back_rotations();
-      e_before = body_energy(&exec, body);
+      save_change_energy(body);
     };
     if (!adapt_body(body, t + h, near, before_change, &exec)) {
       clock_check();
       continue;
     }
-    double excess = body_energy(&exec, body) - e_before;
+    const ChangeEnergy change = change_energy_added(body);
+    double excess = change.added;
     BodyMotion motion = body_motion(body);  // what take_energy can take (all of it at most)
-    if (body.adapt->undoable && excess - motion.relative > kUnpaidShare * e_before) {
-      excess = undo_change(body, t + h) ? body_energy(&exec, body) - e_before : 0.0;
-      motion = body_motion(body);
+    // The body's energy before the change, for the undo's test, only when the test could pass: it is
+    // at least the part of it where the change acted (every term is >= 0: kinetic energies, and
+    // elastic energies of positive definite materials), so an unpaid excess within kUnpaidShare of
+    // that part is within it of the whole (the whole body's sum: the energy now less the excess).
+    if (body.adapt->undoable && excess - motion.relative > kUnpaidShare * change.before_here) {
+      const double e_before = body_energy(&exec, body) - excess;
+      if (excess - motion.relative > kUnpaidShare * e_before) {
+        excess = undo_change(body, t + h) ? body_energy(&exec, body) - e_before : 0.0;
+        motion = body_motion(body);
+      }
     }
     if (excess > 0) {
       take_energy(body, excess, motion);
@@ -865,6 +872,121 @@ double Simulation<T>::body_energy(Executor* exec, const SimBody<T>& body) const 
         for (int k = 0; k < 3; ++k) e += 0.5 * double(L.mass[n]) * double(L.v[k][n]) * double(L.v[k][n]);
   }
   return e;
+}
+
+namespace {
+// mask[t] = 1 for the tets L steps (its runs), 0 for the others.
+template <class T>
+void stepped_mask(const Level<T>& L, std::vector<std::uint8_t>& mask) {
+  mask.assign(L.tet_count, 0);
+  for (const Range& r : L.stepped_runs) std::fill(mask.begin() + std::ptrdiff_t(r.begin), mask.begin() + std::ptrdiff_t(r.end), 1);
+}
+}  // namespace
+
+template <class T>
+void Simulation<T>::save_change_energy(const SimBody<T>& body) {
+  auto& before = change_energy_.before;
+  before.resize(body.levels.size());
+  for (std::size_t l = 0; l < body.levels.size(); ++l) {
+    const Level<T>& L = body.levels[l];
+    ChangeEnergyLevel& b = before[l];
+    b.saved = L.stepped_count > 0;  // else every node inactive (body_energy)
+    if (!b.saved) continue;
+    b.state.assign(L.state.begin(), L.state.begin() + std::ptrdiff_t(L.node_count));
+    b.mass.assign(L.mass.begin(), L.mass.end());
+    current_state(body, L, b.now);
+    stepped_mask(L, b.stepped);
+  }
+}
+
+template <class T>
+typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const SimBody<T>& body) {
+  ChangeEnergyScratch& ce = change_energy_;
+  double e_before = 0, e_after = 0;  // J, over what changed, each in a fixed order
+  for (std::size_t l = 0; l < body.levels.size(); ++l) {
+    const Level<T>& L = body.levels[l];
+    const ChangeEnergyLevel& b = ce.before[l];
+    const bool on = L.stepped_count > 0;
+    if (!b.saved && !on) continue;  // idle before and after: inactive nodes, no tet
+    if (on) {
+      current_state(body, L, ce.after);
+      stepped_mask(L, ce.stepped_after);
+    } else {
+      ce.stepped_after.assign(L.tet_count, 0);
+    }
+    // Nodes whose contribution may differ: another state, or (simulated) another mass, position
+    // or velocity, to the bit.
+    ce.dirty.clear();
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      const std::uint8_t was = b.saved ? b.state[n] : std::uint8_t(kNodeInactive), now = L.state[n];
+      if (was == kNodeInactive && now == kNodeInactive) continue;
+      bool differs = was != now || !(L.mass[n] == b.mass[n]);
+      for (int k = 0; k < 3 && !differs; ++k)
+        differs = !(ce.after.x[k][n] == b.now.x[k][n]) || !(ce.after.v[k][n] == b.now.v[k][n]);
+      if (differs) ce.dirty.push_back(std::int32_t(n));
+    }
+    // Tets: those stepped before or after around a dirty node, and those whose stepping changed.
+    ce.tet_mark.assign(L.tet_count, 0);
+    ce.tets.clear();
+    auto was_stepped = [&](std::size_t t) { return b.saved && b.stepped[t]; };
+    auto add_tet = [&](std::size_t t) {
+      if (ce.tet_mark[t] || !(was_stepped(t) || ce.stepped_after[t])) return;
+      ce.tet_mark[t] = 1;
+      ce.tets.push_back(std::int32_t(t));
+    };
+    for (std::int32_t n : ce.dirty)
+      for (auto e = L.incidence_offsets[std::size_t(n)]; e < L.incidence_offsets[std::size_t(n) + 1]; ++e)
+        add_tet(std::size_t(L.incidence[std::size_t(e)] >> 2));  // 4 * tet + corner
+    // (Compared 8 tets at a time: the masks differ in a few places of a level's thousands of tets.)
+    const std::size_t words = b.saved ? L.tet_count / 8 : 0;
+    for (std::size_t w = 0; w < words; ++w) {
+      std::uint64_t was, now;
+      std::memcpy(&was, b.stepped.data() + 8 * w, 8);
+      std::memcpy(&now, ce.stepped_after.data() + 8 * w, 8);
+      if (was != now)
+        for (std::size_t t = 8 * w; t < 8 * w + 8; ++t)
+          if (b.stepped[t] != ce.stepped_after[t]) add_tet(t);
+    }
+    for (std::size_t t = 8 * words; t < L.tet_count; ++t)
+      if (bool(was_stepped(t)) != bool(ce.stepped_after[t])) add_tet(t);
+    std::sort(ce.tets.begin(), ce.tets.end());
+    // Their elastic energy before (the saved positions) and after, tet by tet: the same kernels,
+    // rest data and warm-start rotations (Level::rotation, written back before the change) as the
+    // whole-body sums, so an unchanged tet would give the same bits.
+    if (ce.energy.size() < L.tet_count) ce.energy.resize(L.tet_count);
+    double* out = ce.energy.data();
+    ElementContext<T> ec = element_context(L);
+    const EnergyPass<T> pass = energy_kernel<T>(L.model);
+    auto elastic = [&](const CurrentState<T>& state, bool after, double& sum) {
+      ce.phase_tets.clear();
+      for (std::int32_t t : ce.tets)
+        if (after ? bool(ce.stepped_after[std::size_t(t)]) : was_stepped(std::size_t(t))) ce.phase_tets.push_back(t);
+      if (ce.phase_tets.empty()) return;
+      for (int k = 0; k < 3; ++k) {
+        ec.x[k] = state.x[k].data();
+        ec.v[k] = state.v[k].data();
+      }
+      const std::int32_t* ids = ce.phase_tets.data();
+      const std::size_t n = ce.phase_tets.size();
+      if (L.model == ForceModel::corotational) {
+        element_energy_corotational_listed(ec, ids, Range{0, n}, out);
+      } else {
+        for (std::size_t i = 0; i < n; ++i) pass(ec, Range{std::size_t(ids[i]), std::size_t(ids[i]) + 1}, out);
+      }
+      for (std::size_t i = 0; i < n; ++i) sum += out[std::size_t(ids[i])];
+    };
+    if (b.saved) elastic(b.now, false, e_before);
+    if (on) elastic(ce.after, true, e_after);
+    // Their nodes' kinetic energy (free nodes: 1/2 m v^2, as body_energy counts it).
+    for (std::int32_t i : ce.dirty) {
+      const auto n = std::size_t(i);
+      if (b.saved && b.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) e_before += 0.5 * double(b.mass[n]) * double(b.now.v[k][n]) * double(b.now.v[k][n]);
+      if (L.state[n] == kNodeFree)
+        for (int k = 0; k < 3; ++k) e_after += 0.5 * double(L.mass[n]) * double(L.v[k][n]) * double(L.v[k][n]);
+    }
+  }
+  return {e_after - e_before, e_before};
 }
 
 template <class T>
