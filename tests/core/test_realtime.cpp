@@ -197,11 +197,11 @@ TEST(RealTime, SceneKeyAndOverride) {
 
 // A clamped beam sagging under gravity, two levels, adaptive with thresholds so low that any strain
 // splits (at the scene's scale 1 it runs all fine); or the same beam all fine, not adaptive.
-SceneDef sagging_beam(bool adaptive) {
-  return parse_scene(std::string(R"({"duration": 0.3, "bodies": [{"name": "beam", "mesh": {"box": {"min": [0,0,0], "max": [0.2,0.04,0.04],
-      "cells": [10,2,2], "tets_per_cell": 6}}, "material": {"young": 2e5, "damping": {"mass": 5}},
+SceneDef sagging_beam(bool adaptive, int levels = 2, double duration = 0.3) {
+  return parse_scene(std::string(R"({"duration": )") + std::to_string(duration) + R"(, "bodies": [{"name": "beam", "mesh": {"box": {"min": [0,0,0], "max": [0.2,0.04,0.04],
+      "cells": [)" + (levels > 2 ? "20,4,4" : "10,2,2") + R"(], "tets_per_cell": 6}}, "material": {"young": 2e5, "damping": {"mass": 5}},
       "fixed": [{"box": {"min": [-1,-1,-1], "max": [1e-9,1,1]}}],
-      "multiresolution": {"levels": 2, )") + (adaptive ? R"("active": "adaptive", "adapt": {"refine_above": 1e-6, "coarsen_below": 5e-7, "min_dwell": 0}})"
+      "multiresolution": {"levels": )" + std::to_string(levels) + ", " + (adaptive ? R"("active": "adaptive", "adapt": {"refine_above": 1e-6, "coarsen_below": 5e-7, "min_dwell": 0}})"
                                                           : R"("active": "finest"})") + "}]}",
                      "beam.json", ".");
 }
@@ -215,13 +215,13 @@ SceneDef sagging_beam(bool adaptive) {
 // `change_cost` (s): what each change of resolution costs on that clock (0: nothing).
 RunSummary costed_run(bool adaptive, double fine_cost = 2.0,
                       const std::function<void(const std::string&, double)>& on_warning = {},
-                      double late_wake_at = -1, double change_cost = 0) {
-  const SceneDef scene = sagging_beam(adaptive);
+                      double late_wake_at = -1, double change_cost = 0, int levels = 2, double duration = 0.3) {
+  const SceneDef scene = sagging_beam(adaptive, levels, duration);
   RunOptions o;
   o.write_files = false;
   o.realtime = true;
   World w = make_world(scene, o);
-  const double per_tet = fine_cost * w.dt() / double(w.tet_count(0, 1));
+  const double per_tet = fine_cost * w.dt() / double(w.tet_count(0, levels - 1));
   double slept = 0;
   auto worked = [&] { return w.tick_stats().tet_updates() * per_tet + double(w.adapt_stats(0).changes) * change_cost; };
   o.wall_clock = [&] { return worked() + slept; };
@@ -301,6 +301,45 @@ TEST(RealTime, AFrameHeavyOnlyByAChangeOfResolutionDoesNotCoarsen) {
   EXPECT_EQ(s.controller_coarsened, 0);
   EXPECT_EQ(s.deadline_misses, 0);
   EXPECT_GT(s.adapt.at(0).changes, 2);  // the changes happened (and were paid on the clock)
+}
+
+TEST(RealTime, AfterATryTooHeavyTheControllerStepsDownOneRungNotAll) {
+  // Three levels: the middle one costs a sixteenth of the finest (8 times fewer tets, half as
+  // often), so the controller climbs the middle level's rungs and tries the finest, whose region
+  // (2 splits a decision) soon makes a frame heavy. It steps down one rung, to the middle level at
+  // its lowest thresholds; the frames until the next decision point still step the finest region
+  // (merged there, at once, below the cap): they are the try's cost, not the middle rung's, and are
+  // not judged. Judged, each took the body one rung further down, remembered as busy, to its
+  // coarsest (the 50k-tet organ after a try of its finest level, 2026-11-28). Heavy frames still
+  // step down while the body settles (here its monitor sub-steps on), but the rungs they pass are
+  // not remembered busy, so the controller climbs back. Measured (virtual clock, deterministic):
+  // 8 refinements, 5 coarsenings, ending on the middle level at its lowest thresholds (rung 3),
+  // 26 frames late; before, 4 and 4, ending at the coarsest, 23 frames late.
+  const RunSummary s = costed_run(true, 2.0, {}, -1, 0, 3);
+  std::printf("three levels: refined %lld, coarsened %lld, cap down to %d, %lld frames late, lag max %.3g s, %lld splits, %lld merges\n",
+              static_cast<long long>(s.controller_refined), static_cast<long long>(s.controller_coarsened),
+              s.controller_min_cap, static_cast<long long>(s.deadline_misses), s.lag_max_s,
+              static_cast<long long>(s.adapt.at(0).splits), static_cast<long long>(s.adapt.at(0).merges));
+  EXPECT_EQ(s.controller_refined - s.controller_coarsened, 3);  // the rung below the finest level's try
+  EXPECT_EQ(s.controller_min_cap, 0);                           // it went down to the coarsest on the way
+  EXPECT_LE(s.deadline_misses, 26);
+}
+
+TEST(RealTime, ARungLostToAChangeThatOverranIsTriedAgainLater) {
+  // The finest level costs 0.6 of the clock, each change of resolution 0.5 ms: a frame with a
+  // change overruns its time (a deadline missed), one without fits. The controller steps down at
+  // the first such frame; the rung's own load was not the cause, so it is tried again after 2 s,
+  // then 4 s (the next wait, 8 s, ends after the run). Measured over 7 s: 3 tries, 3 frames over
+  // their time and late; before, the rung was remembered busy at the overrun frame's load and
+  // never tried again: 1 try, 1 frame late.
+  const RunSummary s = costed_run(true, 0.6, {}, -1, 0.5e-3, 2, 7.0);
+  std::printf("changes of 0.5 ms over 7 s: refined %lld, coarsened %lld, %lld frames late, %lld over their time, %lld changes\n",
+              static_cast<long long>(s.controller_refined), static_cast<long long>(s.controller_coarsened),
+              static_cast<long long>(s.deadline_misses), static_cast<long long>(s.frames_over),
+              static_cast<long long>(s.adapt.at(0).changes));
+  EXPECT_EQ(s.controller_refined, 3);
+  EXPECT_EQ(s.controller_coarsened, 3);
+  EXPECT_LE(s.frames_over, s.controller_refined);  // each try costs at most the frame that ends it
 }
 
 TEST(RealTime, ASceneTooSlowEvenAtItsCoarsestLevelSaysSoDuringTheRun) {

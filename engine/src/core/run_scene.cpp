@@ -384,8 +384,9 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   // dropping to its coarsest. It decides where resolution goes, never what a step computes.
   //  - It starts at rung 0: a guaranteed rate cannot begin by overrunning (the 50k-tet organ, all
   //    fine, took 2 s of wall time for its first 0.1 s before the controller had caught up).
-  //  - A window is busy if it used more than kBusy of its time, if simulated time is behind the
-  //    clock, or if a frame in it missed its deadline: the controller steps one rung down.
+  //  - A window is busy if it used more than kBusy of its time, or if a frame in it was heavy
+  //    (below): the controller steps one rung down. After a step down, the frames that still carry
+  //    the rung above (settling, below) step down too, but are not held against the rungs they pass.
   //  - A window below kIdle of its time and on time steps one rung up, unless that rung was already
   //    found busy: then only if the load it measured there, scaled by how the load here changed
   //    since, would now stay below kBusy (without this memory, a rung that costs 0.9 of the clock was
@@ -425,6 +426,11 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   int cap = cap_of(rung);
   std::vector<double> busy_load(std::size_t(top_rung) + 1, 0.0);  // per rung: the load of the window that found it busy
   std::vector<double> entry_load(std::size_t(top_rung) + 1, 0.0); // per rung: the load below it when it was entered
+  // Per rung left for a change that overran its frame: when it may be tried again, and the wait
+  // after the next such loss (s of simulated time; kChangeBackoff first, doubling).
+  constexpr double kChangeBackoff = 2.0;
+  std::vector<double> retry_at(std::size_t(top_rung) + 1, 0.0);
+  std::vector<double> change_backoff(std::size_t(top_rung) + 1, kChangeBackoff);
   auto apply_rung = [&] {
     scale = scale_of(rung);
     cap = cap_of(rung);
@@ -439,6 +445,19 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     for (BodyId b : adaptive_bodies) world.set_adapt_split_budget(b, kSplitsPerDecision);
     apply_rung();
   }
+  // After a step down, the frames until the bodies have left the rung above (its region merged at
+  // the next decision point, the deformation monitor back to its sub-steps) carry that rung's
+  // cost, not the new one's: the 50k-tet organ's try of its finest level made the monitor sub-step
+  // 19 times (frames of 5-7 ms) and the merges at the lowered cap took 0.9-1.1 ms; each such frame
+  // took it one rung further down, and each of those rungs was remembered busy at 5-7 times the
+  // clock, never to be tried again (2026-11-28). Heavy frames still step down while settling (the
+  // clock comes first: a body that stays costly, its monitor still sub-stepping, must go lower),
+  // but the rungs they pass are not remembered busy, nor does the controller refine meanwhile.
+  bool settling = false, frame_settles = false;
+  double settle_until = 0;
+  int settle_substeps = 1;
+  std::vector<std::int64_t> settle_checks(adaptive_bodies.size(), 0);  // per adaptive body: its decision points at the step down
+  std::vector<int> rung_substeps(std::size_t(top_rung) + 1, 1);        // per rung: the monitor's sub-steps when it was left upwards
   bool estimated = false, coarsest_warned = false;
   double next_progress = options.progress_every;
   try {
@@ -469,6 +488,25 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         frame_open = true;
         frame_busy = 0;
         frame_change_busy = 0;
+        // Whether this frame still carries the rung the controller has just left (settling): until
+        // every adaptive body has passed a decision point since (where it merges what the new rung
+        // does not keep: the levels above a lowered cap at once, the rest by the raised
+        // thresholds), no level above the cap steps a tet, and the deformation monitor sub-steps
+        // no more than it did at this rung before; kControlWindow at most.
+        if (settling) {
+          bool settled = world.time() >= settle_until;
+          if (!settled) {
+            settled = world.substeps() <= settle_substeps;
+            for (std::size_t k = 0; k < adaptive_bodies.size() && settled; ++k) {
+              const BodyId b = adaptive_bodies[k];
+              settled = world.adapt_stats(b).checks > settle_checks[k];
+              for (int l = std::min(cap, world.level_count(b) - 1) + 1; l < world.level_count(b) && settled; ++l)
+                settled = world.level_info(b, l).stepped_tets == 0;
+            }
+          }
+          settling = !settled;
+        }
+        frame_settles = settling;
         if (frame > 0)
           while (frame_end <= world.time() + eps) frame_end += frame;
       }
@@ -514,17 +552,32 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         const bool overrun = frame_heavy || (frame <= 0 && window_misses > 0);
         if (window >= kControlWindow || (overrun && rung > 0)) {
           const double load = window_busy / window;
-          // Behind the clock counts as busy: refining again while late would never catch up.
+          // Behind the clock: no refining (late, it would never catch up), but no coarsening either
+          // while the load lets it catch up (below kBusy, frames run back to back and gain on the
+          // clock): after a try of its finest level had put it 39 ms behind, the 50k-tet organ
+          // stepped down its middle rungs one window after another at loads of 0.35 (2026-11-28).
           const double behind = (wall_now() - wall0) - (world.time() - sim0);
           const int was = rung;
-          if (load > kBusy || behind > 0.5 * kControlWindow || overrun) {
+          if (load > kBusy || overrun) {
             if (rung > 0) {
               // The load the rung was found at: the heavy frame's own when a heavy frame ended the
               // window (the window's mean averages it with the light frames before it, and a rung
               // remembered at 0.8 of the clock was retried as soon as the load below it fell a
               // little: on the 50k organ, whose tries of the middle level began with frames of
               // 1.3-1.5 ms, the cheaper coarsest level brought 5 tries in 60 s instead of 3).
-              busy_load[std::size_t(rung)] = std::max({load, kBusy, frame_heavy ? frame_busy / frame : 0.0});
+              // Not while settling: those frames carry the rung above, found busy already.
+              // A frame heavy only by its change of resolution (its own stepping within kBusy, the
+              // change taking it past its time) says nothing of the rung's load: the rung is tried
+              // again after kChangeBackoff, then twice as long each time (the 50k-tet organ's middle level lost at
+              // its first change of 0.7 ms was otherwise never tried again, its frames at 0.4 of
+              // the clock; 2026-11-28).
+              const bool by_change = frame_heavy && frame_busy - frame_change_busy <= kBusy * frame;
+              if (!frame_settles && by_change) {
+                retry_at[std::size_t(rung)] = world.time() + change_backoff[std::size_t(rung)];
+                change_backoff[std::size_t(rung)] *= 2;
+              } else if (!frame_settles) {
+                busy_load[std::size_t(rung)] = std::max({load, kBusy, frame_heavy ? frame_busy / frame : 0.0});
+              }
               --rung;
             } else if (load > 1 && !coarsest_warned) {
               // Nothing left to coarsen: the scene cannot keep the clock even at its coarsest.
@@ -538,15 +591,23 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
               s.notes.push_back(w);
               if (options.on_warning) options.on_warning(w);
             }
-          } else if (load < kIdle && behind <= 0 && rung < top_rung) {
+          } else if (load < kIdle && behind <= 0 && rung < top_rung && !frame_settles) {
             const auto up = std::size_t(rung) + 1;
             const bool known_busy = busy_load[up] > 0;
-            if (!known_busy || busy_load[up] * load / entry_load[up] < kBusy) {
+            if (world.time() >= retry_at[up] && (!known_busy || busy_load[up] * load / entry_load[up] < kBusy)) {
               entry_load[up] = std::max(load, 1e-9);
               ++rung;
             }
           }
           if (rung != was) {
+            if (rung > was) {
+              rung_substeps[std::size_t(was)] = world.substeps();
+            } else if (!frame_settles) {  // (a step down while settling keeps the first one's clock)
+              settling = true;
+              settle_until = world.time() + kControlWindow;
+              settle_substeps = rung_substeps[std::size_t(rung)];
+              for (std::size_t k = 0; k < adaptive_bodies.size(); ++k) settle_checks[k] = world.adapt_stats(adaptive_bodies[k]).checks;
+            }
             (rung < was ? s.controller_coarsened : s.controller_refined)++;
             apply_rung();
           }
