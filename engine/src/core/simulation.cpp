@@ -920,7 +920,7 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const Si
     for (std::size_t n = 0; n < L.node_count; ++n) {
       const std::uint8_t was = b.saved ? b.state[n] : std::uint8_t(kNodeInactive), now = L.state[n];
       if (was == kNodeInactive && now == kNodeInactive) continue;
-      bool differs = was != now || !(L.mass[n] == b.mass[n]);
+      bool differs = was != now || !on || !(L.mass[n] == b.mass[n]);  // (!on: no state after to compare)
       for (int k = 0; k < 3 && !differs; ++k)
         differs = !(ce.after.x[k][n] == b.now.x[k][n]) || !(ce.after.v[k][n] == b.now.v[k][n]);
       if (differs) ce.dirty.push_back(std::int32_t(n));
