@@ -322,6 +322,7 @@ class Simulation {
     double added = 0;        // J: E_after - E_before
     double before_here = 0;  // J: the part of E_before where the change acted (<= E_before)
   };
+  void place_ghosts(SimBody<T>& body);  // every ghost where its sources are now (after a change)
   void save_change_energy(const SimBody<T>& body);
   ChangeEnergy change_energy_added(const SimBody<T>& body);
   // A change of an adaptive body that merged is undone (undo_change: applied again without its
