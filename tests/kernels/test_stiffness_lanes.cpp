@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "../support/element_arrays.hpp"
+#include "../support/random_rest_tet.hpp"
 #include "../support/same_bits.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/element_stiffness.hpp"
@@ -46,15 +47,8 @@ struct Tets : test::ElementArrays<T> {
     }
     this->size_tets(nt);
     for (std::size_t t = 0; t < nt; ++t) {
-      double p[4][3];
-      for (int k = 0; k < 3; ++k) p[0][k] = 0.1 * u(rng);
-      for (int a = 1; a < 4; ++a)
-        for (int k = 0; k < 3; ++k) p[a][k] = p[0][k] + 0.02 * (a - 1 == k ? 1.0 : 0.0) + 0.008 * u(rng);
-      double vol, g[9];
-      if (!tet_rest_geometry(p[0], p[1], p[2], p[3], &vol, g)) {
-        for (int k = 0; k < 3; ++k) std::swap(p[2][k], p[3][k]);
-        EXPECT_TRUE(tet_rest_geometry(p[0], p[1], p[2], p[3], &vol, g));
-      }
+      double p[4][3], vol, g[9];
+      test::random_rest_tet(rng, p, vol, g);
       volume[t] = T(vol);
       for (int q = 0; q < 9; ++q) grad[q][t] = T(g[q]);
       // Stretch S by kind.

@@ -12,6 +12,7 @@
 #include <random>
 #include <vector>
 
+#include "../support/random_rest_tet.hpp"
 #include "pliant/kernels/element_forces.hpp"
 #include "pliant/kernels/strain_measure.hpp"
 
@@ -38,15 +39,8 @@ struct MeasureTets {
     for (auto& g : grad) g.resize(nt);
     for (auto& a : tet) a.resize(nt);
     for (std::size_t t = 0; t < nt; ++t) {
-      double p[4][3];
-      for (int k = 0; k < 3; ++k) p[0][k] = 0.1 * u(rng);
-      for (int a = 1; a < 4; ++a)
-        for (int k = 0; k < 3; ++k) p[a][k] = p[0][k] + 0.02 * (a - 1 == k ? 1.0 : 0.0) + 0.008 * u(rng);
-      double vol, g[9];
-      if (!tet_rest_geometry(p[0], p[1], p[2], p[3], &vol, g)) {
-        for (int k = 0; k < 3; ++k) std::swap(p[2][k], p[3][k]);
-        EXPECT_TRUE(tet_rest_geometry(p[0], p[1], p[2], p[3], &vol, g));
-      }
+      double p[4][3], vol, g[9];
+      test::random_rest_tet(rng, p, vol, g);
       for (int q = 0; q < 9; ++q) grad[q][t] = T(g[q]);
       double A[9];
       const double spread = t % 5 == 4 ? 0.8 : 0.05;  // some tets far from rest

@@ -739,6 +739,21 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   return true;
 }
 
+// x[k][g], v[k][g] for every ghost g of L: where its sources are now (ghost_now, rounded to T).
+// x and v may be L's own arrays (a ghost's sources are never ghosts).
+template <class T>
+void write_ghosts_now(const SimBody<T>& body, const Level<T>& L, AlignedVector<T> (&x)[3], AlignedVector<T> (&v)[3]) {
+  for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
+    double xi[3], vi[3];
+    ghost_now(body, L, i, xi, vi);
+    const auto g = std::size_t(L.ghosts[i]);
+    for (int k = 0; k < 3; ++k) {
+      x[k][g] = T(xi[k]);
+      v[k][g] = T(vi[k]);
+    }
+  }
+}
+
 // Every ghost of the body where its sources are now (position and velocity). The step refreshes a
 // level's ghosts at the start of its windows, and a change comes where every window of the body
 // ends, so the next tick computes these same places before any force; but the deformation
@@ -749,16 +764,7 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
 // the next 3 ms (2026-11-28; test Adaptivity.NewGhostsStandWhereTheirSourcesAreWhenTheMonitorMeasures).
 template <class T>
 void Simulation<T>::place_ghosts(SimBody<T>& body) {
-  for (Level<T>& L : body.levels)
-    for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
-      double x[3], v[3];
-      ghost_now(body, L, i, x, v);
-      const auto g = std::size_t(L.ghosts[i]);
-      for (int k = 0; k < 3; ++k) {
-        L.x[k][g] = T(x[k]);
-        L.v[k][g] = T(v[k]);
-      }
-    }
+  for (Level<T>& L : body.levels) write_ghosts_now(body, L, L.x, L.v);
 }
 
 // A probe reads the finest level that steps a tet around its material point (World::add_probe's
@@ -810,15 +816,7 @@ void current_state(const SimBody<T>& body, const Level<T>& L, CurrentState<T>& o
     out.x[k].assign(L.x[k].begin(), L.x[k].end());
     out.v[k].assign(L.v[k].begin(), L.v[k].end());
   }
-  for (std::size_t i = 0; i < L.ghosts.size(); ++i) {
-    double x[3], v[3];
-    ghost_now(body, L, i, x, v);
-    const auto g = std::size_t(L.ghosts[i]);
-    for (int k = 0; k < 3; ++k) {
-      out.x[k][g] = T(x[k]);
-      out.v[k][g] = T(v[k]);
-    }
-  }
+  write_ghosts_now(body, L, out.x, out.v);
 }
 template void current_state<float>(const SimBody<float>&, const Level<float>&, CurrentState<float>&);
 template void current_state<double>(const SimBody<double>&, const Level<double>&, CurrentState<double>&);
