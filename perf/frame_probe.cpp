@@ -5,12 +5,15 @@
 // steps (with their index modulo the coarsest level's period: the ticks where windows end), and
 // each level's stepped tets at the end. docs/adaptivity.md quotes it for the middle level's cost.
 //   frame_probe SCENE [--set PATH=VALUE]... [--duration S] [--threads N] [--scale X] [--cap LEVEL]
-//               [--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S]
+//               [--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S] [--lift-to LEVEL]
+//               [--change-interval S]
+// --budget and --change-interval set what the real-time controller sets (2 splits a decision, one
+// change a frame: World::set_adapt_split_budget and set_adapt_change_interval).
 // --paced 1 waits for each frame's wall-clock time as `pliant run --realtime` does (then memory
 // the idle levels leave untouched ages as in a real-time run); --touch reads that many pages of
 // the bodies' arrays in each wait (World::touch_pages; the runner reads up to 64); --lift-at lifts
-// the cap at that simulated time and prints the frames that follow it (what a try of the finer
-// levels costs after they sat idle).
+// the cap at that simulated time (to the finest level, or to --lift-to LEVEL) and prints the frames
+// that follow it (what a try of the finer levels costs after they sat idle).
 // --set edits the scene as `pliant study --sweep` does, e.g. the 50k-tet organ of docs/adaptivity.md:
 //   frame_probe scenes/adaptive_organ.json --set bodies[0].mesh.cell_size=0.0043 --threads 2 --scale 4 --cap 1 --budget 2
 #include <fmt/format.h>
@@ -44,7 +47,7 @@ double quantile(std::vector<double> v, double q) {
 int usage() {
   std::fprintf(stderr,
                "usage: frame_probe SCENE [--set PATH=VALUE]... [--duration S] [--threads N] [--scale X] [--cap LEVEL] "
-               "[--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S]\n");
+               "[--budget SPLITS] [--frame S] [--paced 1] [--touch PAGES] [--lift-at S] [--lift-to LEVEL] [--change-interval S]\n");
   return 2;
 }
 
@@ -52,8 +55,8 @@ int usage() {
 
 int main(int argc, char** argv) {
   if (argc < 2) return usage();
-  double duration = 1, scale = 1, frame = 1e-3, lift_at = -1;
-  int threads = 0, cap = -1, budget = 0, paced = 0, touch = 0;
+  double duration = 1, scale = 1, frame = 1e-3, lift_at = -1, change_interval = 0;
+  int threads = 0, cap = -1, budget = 0, paced = 0, touch = 0, lift_to = -1;
   std::vector<std::string> overrides;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
@@ -68,10 +71,12 @@ int main(int argc, char** argv) {
     else if (a == "--scale") scale = v;
     else if (a == "--cap") cap = int(v);
     else if (a == "--budget") budget = int(v);
+    else if (a == "--change-interval") change_interval = v;
     else if (a == "--frame") frame = v;
     else if (a == "--paced") paced = int(v);
     else if (a == "--touch") touch = int(v);
     else if (a == "--lift-at") lift_at = v;
+    else if (a == "--lift-to") lift_to = int(v);
     else return usage();
   }
   if (!(duration > 0) || !(frame > 0)) return usage();
@@ -93,6 +98,7 @@ int main(int argc, char** argv) {
       w.set_adapt_scale(id, scale);
       if (cap >= 0) w.set_adapt_cap(id, std::min(cap, w.level_count(id) - 1));
       if (budget > 0) w.set_adapt_split_budget(id, budget);
+      if (change_interval > 0) w.set_adapt_change_interval(id, change_interval);
     }
     const auto steps = std::int64_t(std::llround(duration / w.dt()));
     const auto per_frame = std::max<std::int64_t>(1, std::llround(frame / w.dt()));
@@ -127,7 +133,7 @@ int main(int argc, char** argv) {
         lift_step = i;
         for (std::size_t b = 0; b < w.body_count(); ++b)
           if (w.body_def(BodyId(b)).multiresolution.active.kind == ActiveDef::Kind::adaptive)
-            w.set_adapt_cap(BodyId(b), w.level_count(BodyId(b)) - 1);
+            w.set_adapt_cap(BodyId(b), lift_to >= 0 ? std::min(lift_to, w.level_count(BodyId(b)) - 1) : w.level_count(BodyId(b)) - 1);
       }
       const auto [checks0, changes0] = adapt_counts();
       const auto a = std::chrono::steady_clock::now();
@@ -161,8 +167,9 @@ int main(int argc, char** argv) {
     for (double x : step_us) sum += x;
     for (double f : frame_us) frame_sum += f;
     const std::size_t over = std::size_t(std::count_if(frame_us.begin(), frame_us.end(), [&](double f) { return f > 1e6 * frame; }));
-    fmt::print("{} steps of {:.3g} s on {} thread(s), thresholds x{:g}, cap {}, split budget {}\n", steps, w.dt(), w.threads(),
-               scale, cap < 0 ? std::string("none") : std::to_string(cap), budget > 0 ? std::to_string(budget) : std::string("none"));
+    fmt::print("{} steps of {:.3g} s on {} thread(s), thresholds x{:g}, cap {}, split budget {}, change interval {:g} s\n", steps, w.dt(), w.threads(),
+               scale, cap < 0 ? std::string("none") : std::to_string(cap), budget > 0 ? std::to_string(budget) : std::string("none"),
+               change_interval);
     fmt::print("steps (us): mean {:.2f}, p50 {:.2f}, p99 {:.2f}, max {:.1f}\n", sum / double(std::max<std::int64_t>(steps, 1)),
                quantile(step_us, 0.5), quantile(step_us, 0.99), step_us.empty() ? 0.0 : *std::max_element(step_us.begin(), step_us.end()));
     fmt::print("frames of {} steps ({:.3g} s): {}, stepping mean {:.1f} us, p50 {:.1f}, p99 {:.1f}, max {:.1f}; {} took longer than a frame\n",

@@ -460,6 +460,58 @@ TEST(Adaptivity, ASplitBudgetSpreadsARegionsSplitsOverDecisions) {
   }
 }
 
+TEST(Adaptivity, AChangeIntervalHoldsTheNextDecisionBack) {
+  // The bent bar of the tests above, with its changes at most 10 ms apart (World::
+  // set_adapt_change_interval; the real-time controller sets one frame): without the interval it
+  // changes at decision points closer than that; with it, never, and it still refines. The same
+  // bits on 1 and 2 threads (the decision points are fixed ticks).
+  constexpr double kInterval = 0.01;  // s: several of the bar's decision points
+  auto change_times = [&](double interval, int threads, std::uint64_t* hash) {
+    World w(no_gravity(threads));
+    w.add_body(pushed_bar(0.03, true));
+    EXPECT_EQ(w.adapt_change_interval(0), 0.0);
+    if (interval > 0) w.set_adapt_change_interval(0, interval);
+    EXPECT_EQ(w.adapt_change_interval(0), interval);
+    std::vector<double> times;
+    std::int64_t changes = 0;
+    while (w.time() < 0.4) {
+      w.step();
+      if (w.adapt_stats(0).changes > changes) {
+        changes = w.adapt_stats(0).changes;
+        times.push_back(w.time());
+      }
+    }
+    EXPECT_GT(w.adapt_stats(0).splits, 0);
+    if (hash) *hash = w.state_hash();
+    return times;
+  };
+  auto closest = [](const std::vector<double>& t) {
+    double gap = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 1; i < t.size(); ++i) gap = std::min(gap, t[i] - t[i - 1]);
+    return gap;
+  };
+  std::uint64_t one = 0, two = 0;
+  const std::vector<double> free_times = change_times(0, 1, nullptr), held = change_times(kInterval, 1, &one);
+  change_times(kInterval, 2, &two);
+  std::printf("%zu changes without the interval (closest %.4g s apart), %zu with it (closest %.4g s)\n", free_times.size(),
+              closest(free_times), held.size(), closest(held));
+  ASSERT_GE(free_times.size(), 3u);
+  EXPECT_LT(closest(free_times), kInterval);
+  ASSERT_GE(held.size(), 2u);
+  EXPECT_GE(closest(held), kInterval - 1e-9);
+  EXPECT_EQ(one, two);
+  World w(no_gravity());
+  w.add_body(pushed_bar(0.03, true));
+  for (const double bad : {-1.0, std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity()}) {
+    try {
+      w.set_adapt_change_interval(0, bad);
+      ADD_FAILURE() << "an interval of " << bad << " was accepted";
+    } catch (const InputError& e) {
+      EXPECT_THAT(e.what(), HasSubstr("set_adapt_change_interval"));
+    }
+  }
+}
+
 TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {
   // refine_near only: no strain splits (threshold out of reach), and merges as soon as allowed.
   World w(no_gravity());

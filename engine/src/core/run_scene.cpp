@@ -395,6 +395,10 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   //    region refines over successive decisions, so that the load rises by steps the controller
   //    sees, and no frame absorbs a whole region's split (one split applies in ~0.2 ms on the
   //    50k-tet organ; lifting its cap from level 0 to 1 split ~40 nodes at once, a 2-4 ms frame).
+  //  - And a body changes its resolution at most once a frame (World::set_adapt_change_interval):
+  //    its decision points come every coarsest window (0.22 ms on the 50k-tet organ), and a region
+  //    growing at each of them after a lift put three changes of 0.45-0.9 ms in one frame
+  //    (frames of 1.5-2.3 ms, 2026-11-28).
   constexpr double kControlWindow = 0.02, kBusy = 0.8, kIdle = 0.4, kFactor = 2, kMaxScale = 16, kCapScale = 4;
   constexpr int kSplitsPerDecision = 2;
   std::vector<BodyId> adaptive_bodies;
@@ -442,7 +446,10 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     if (cap < finest) s.controller_min_cap = s.controller_min_cap < 0 ? cap : std::min(s.controller_min_cap, cap);
   };
   if (realtime && !adaptive_bodies.empty()) {
-    for (BodyId b : adaptive_bodies) world.set_adapt_split_budget(b, kSplitsPerDecision);
+    for (BodyId b : adaptive_bodies) {
+      world.set_adapt_split_budget(b, kSplitsPerDecision);
+      if (frame > 0) world.set_adapt_change_interval(b, frame);
+    }
     apply_rung();
   }
   // After a step down, the frames until the bodies have left the rung above (its region merged at

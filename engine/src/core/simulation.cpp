@@ -673,10 +673,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // presses a triangle it cannot push: waiting 6.6 ms for the next check let a sphere 1.5 mm
     // into a coarse triangle by a clamped end, and the split then put the finer surface inside it
     // (a stress scene, 0x9f74...: energy peak 1.67, failing above 1.5; 0.94 deciding at once).
+    // Neither waits within a change interval after a change (AdaptiveState::decision_due).
     bool unresolved = false;
     for (const NearShape& s : near) unresolved |= s.unresolved_contact;
-    const bool due = body.adapt->forced_target >= 0 || unresolved || t + h + 1e-12 >= body.adapt->next_check;
-    if (!due) continue;
+    if (!body.adapt->decision_due(t + h, unresolved)) continue;
     // Energy an earlier change added and could not take back at once (a body at the bottom of its
     // swing, bent, has little motion about its mean velocity): taken now, as far as the motion has
     // it, half of that motion at most per decision point (never stopping the motion at once). A

@@ -643,6 +643,38 @@ void ActivationState::refine_rule(int l, std::int32_t t0, std::vector<std::int32
   }
 }
 
+void ActivationState::for_each_array(const std::function<void(const void*, std::size_t)>& f) const {
+  const auto one = [&](const auto& a) {
+    if (!a.empty()) f(static_cast<const void*>(a.data()), a.size() * sizeof(a[0]));
+  };
+  for (std::size_t l = 0; l < h_.levels(); ++l) {
+    tet_locators_[l]->for_each_array(f);
+    node_locators_[l]->for_each_array(f);
+    one(node_tet_offsets_[l]);
+    one(node_tet_list_[l]);
+    one(child_offsets_[l]);
+    one(child_list_[l]);
+    one(neighbours_[l]);
+    one(targets_[l]);
+    one(present_[l]);
+    one(refined_[l]);
+    one(stepped_[l]);
+    one(share_[l]);
+    one(stepped_incident_[l]);
+    for (std::size_t c = 0; c < near_list_.size(); ++c) {
+      one(near_offsets_[c][l]);
+      one(near_list_[c][l]);
+    }
+    one(role_[l]);
+    one(sources_[l]);  // (the vectors, not their few heap blocks: a walk over every node)
+    one(dependents_[l]);
+    one(reads_[l]);
+    one(covered_memo_[l]);
+    one(node_mark_[l]);
+    one(tet_mark_[l]);
+  }
+}
+
 Activation ActivationState::snapshot() const {
   Activation a;
   a.levels.resize(h_.levels());

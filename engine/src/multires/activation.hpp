@@ -25,6 +25,7 @@
 #pragma once
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <utility>
 #include <vector>
@@ -109,6 +110,11 @@ class ActivationState {
   Changes update();
 
   Activation snapshot() const;  // every level in the CSR form of Activation
+
+  // f(data, bytes) for each of its arrays, its locators' among them: what update() reads.
+  // World::touch_pages keeps them warm between changes: the 50k-tet organ's first change after
+  // seconds at its coarsest level spent 1.1-1.8 ms in update() cold, 0.5 ms warm.
+  void for_each_array(const std::function<void(const void*, std::size_t)>& f) const;
 
  private:
   void refine_rule(int l, std::int32_t t, std::vector<std::int32_t>& refined_now);

@@ -191,10 +191,11 @@ template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change,
                 Executor* exec) {
   AdaptiveState& st = *body.adapt;
-  // World::force_level acts at once, and so does a tool pressing a triangle it cannot push.
+  // World::force_level acts at once, and so does a tool pressing a triangle it cannot push (not
+  // within the change interval: AdaptiveState::decision_due).
   bool unresolved = false;
   for (const NearShape& s : near) unresolved |= s.unresolved_contact;
-  if (st.forced_target < 0 && !unresolved && t + 1e-12 < st.next_check) return false;
+  if (!st.decision_due(t, unresolved)) return false;
   st.next_check = t + st.def.check_every;
   ++st.checks;
   const Hierarchy& h = *st.hierarchy;
@@ -467,6 +468,7 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
     return false;
   }
   ++st.changes;
+  st.last_change = t;
   return true;
 }
 

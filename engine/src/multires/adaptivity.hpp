@@ -51,6 +51,8 @@ struct AdaptiveState {
   double scale = 1;                            // both thresholds times this (the real-time controller raises it to coarsen)
   int cap = 1 << 20;                           // no node is split beyond this level; split nodes above it merge at once
   int split_budget = std::numeric_limits<int>::max();  // splits per decision at most (World::set_adapt_split_budget)
+  double change_interval = 0;                  // s: after a change, no decision for this long (World::set_adapt_change_interval)
+  double last_change = -std::numeric_limits<double>::infinity();  // s: the time of the last change
   double peak_strain = 0;                      // the body's largest |E| at the last decision (diagnostics)
   int forced_target = -1;                      // >= 0: the next decision activates every node up to this level (World::force_level)
   double apply_seconds = 0;                    // wall time spent applying changes (for the cost measurement)
@@ -86,6 +88,18 @@ struct AdaptiveState {
     std::size_t touched_since = 0;
     std::int64_t renormalisations = 0;
   } scratch;
+
+  // Whether a decision is due at time t (s): at its check_every (next_check); at once when forced
+  // (World::force_level) or when a tool presses a triangle it cannot push (`unresolved`), except
+  // within change_interval of the last change (World::set_adapt_change_interval: the real-time
+  // controller's one change a frame; a tool of the 50k-tet organ pressed a finer surface's ghost
+  // corners right after the first change, and the decisions at once put three changes of
+  // 0.45-0.9 ms in one 1 ms frame). force_level is never held back.
+  bool decision_due(double t, bool unresolved) const {
+    if (forced_target >= 0) return true;
+    if (t + 1e-12 < last_change + change_interval) return false;
+    return unresolved || t + 1e-12 >= next_check;
+  }
 };
 
 // The arrays of `body` that follow from an activation (every level): stepped runs, node states,

@@ -46,6 +46,14 @@ class TetLocator {
   void near_surface(const Vec3d& p, double radius, std::vector<std::int32_t>& out) const;
   // Distance (m) from p to the nearest face of tet t, negative when p is outside it.
   double depth(std::int32_t t, const Vec3d& p) const;
+  // f(data, bytes) for each of its arrays (World::touch_pages keeps them warm).
+  template <class F>
+  void for_each_array(F&& f) const {
+    f(offsets_.data(), offsets_.size() * sizeof(offsets_[0]));
+    f(items_.data(), items_.size() * sizeof(items_[0]));
+    f(inverse_.data(), inverse_.size() * sizeof(inverse_[0]));
+    f(box_.data(), box_.size() * sizeof(box_[0]));
+  }
 
  private:
   // Whether p lies deeper than `radius` + slack_ inside tet `hint` (the hinted shortcut above).
@@ -85,6 +93,11 @@ class NodeLocator {
   void in_box(const Vec3d& lo, const Vec3d& hi, std::vector<std::int32_t>& out) const;
   // The same, only the nodes n with keep[n] > 0.
   void in_box(const Vec3d& lo, const Vec3d& hi, const std::vector<std::int32_t>& keep, std::vector<std::int32_t>& out) const;
+  template <class F>
+  void for_each_array(F&& f) const {  // as TetLocator's
+    f(offsets_.data(), offsets_.size() * sizeof(offsets_[0]));
+    f(items_.data(), items_.size() * sizeof(items_[0]));
+  }
 
  private:
   template <class Keep>
