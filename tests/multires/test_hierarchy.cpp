@@ -488,6 +488,67 @@ TEST(TetLocator, HintsAndCoversAgreeWithinTheContainmentTolerance) {
   EXPECT_EQ(loc.containing(outside_a, only_a).tet, 0);
 }
 
+TEST(TetLocator, TheFirstMaskedCandidateIsContainingOrNearsAnswer) {
+  // ActivationState lists each node's candidates once (TetLocator::candidates) and takes the first
+  // one its mask has as the node's ghost source: for every mask, that must be containing_or_near's
+  // tet (with its weights), and covers() must say whether there is one. Points near faces and deep
+  // inside, radii from 0 to an edge, masks with few or many tets, hints right, wrong and absent;
+  // then the tolerance cases of the test above (a point 1e-12 across a shared face, and outside
+  // its tet's bounding box).
+  const TetMesh m = make_box_mesh({0, 0, 0}, {0.4, 0.1, 0.1}, {12, 3, 3}, 6);
+  const detail::TetLocator loc(m);
+  Uniform uniform{77};
+  auto check = [](const detail::TetLocator& l, const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius,
+                  std::int32_t hint, const std::vector<std::int32_t>& list) {
+    const TetLink want = l.containing_or_near(p, mask, radius);
+    std::int32_t first = -1;
+    for (auto t : list)
+      if (mask[std::size_t(t)]) {
+        first = t;
+        break;
+      }
+    EXPECT_EQ(first, want.tet) << "radius " << radius << " hint " << hint;
+    if (first >= 0 && first == want.tet)
+      for (int c = 0; c < 4; ++c) EXPECT_EQ(l.weights(first, p)[std::size_t(c)], want.weights[std::size_t(c)]);
+    EXPECT_EQ(l.covers(p, mask, radius, hint), first >= 0);
+    return first >= 0 && l.containing(p, mask).tet < 0;  // found by the near search
+  };
+  int near_answers = 0, longer = 0;
+  for (int trial = 0; trial < 600; ++trial) {
+    const Vec3d p{-0.02 + 0.44 * uniform(), -0.02 + 0.14 * uniform(), -0.02 + 0.14 * uniform()};
+    const double radius = trial % 5 == 0 ? 0.0 : 0.035 * uniform();
+    const std::int32_t inside = loc.locate(p).tet;
+    for (const std::int32_t hint : {inside, std::int32_t((std::size_t(inside) + m.tet_count() / 2) % m.tet_count()), -1}) {
+      std::vector<std::int32_t> list;
+      loc.candidates(p, radius, hint, list);
+      longer += list.size() > 1;
+      for (int k = 0; k < 4; ++k) {  // masks drawn for the same list
+        std::vector<std::uint8_t> mask(m.tet_count(), 0);
+        const double share = k == 0 ? 0.05 : k == 1 ? 0.5 : k == 2 ? 0.95 : 1.0;
+        for (auto& b : mask) b = uniform() < share;
+        near_answers += check(loc, p, mask, radius, hint, list);
+      }
+    }
+  }
+  EXPECT_GT(near_answers, 200);  // the near part of the lists decided many
+  EXPECT_GT(longer, 500);        // lists of several tets, whose order matters
+
+  TetMesh two;
+  two.points = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1, 1, 1, 1};
+  two.tets = {{0, 1, 2, 3}, {1, 2, 3, 4}};
+  const detail::TetLocator pair(two);
+  const double d = 1e-12;
+  for (const double radius : {0.0, 1e-13, 1e-3})
+    for (const Vec3d& p : {Vec3d{1.0 / 3 - d, 1.0 / 3, 1.0 / 3}, Vec3d{-d, 0.2, 0.2}})
+      for (const std::int32_t hint : {0, -1}) {
+        std::vector<std::int32_t> list;
+        pair.candidates(p, radius, hint, list);
+        for (const std::vector<std::uint8_t>& mask : {std::vector<std::uint8_t>{1, 0}, std::vector<std::uint8_t>{0, 1},
+                                                      std::vector<std::uint8_t>{1, 1}, std::vector<std::uint8_t>{0, 0}})
+          check(pair, p, mask, radius, hint, list);
+      }
+}
+
 TEST(TetLocator, HintsAndCoversGiveContainingOrNearsAnswer) {
   // With a hint (the tet holding p, as a node's link to the coarser level gives it), a point deeper
   // than the radius inside it is answered by that tet alone; covers() says whether a tet would be

@@ -126,7 +126,9 @@ class ActivationState {
   std::uint8_t share_from_parents(std::size_t l, std::int32_t t) const;
   // Whether a stepped tet of a coarser level covers the node (it would be a ghost, step 3).
   bool covered(int l, std::int32_t node) const;
-  void forget_covered(int l) const;
+  // The tet of level c < l a node of level l would read as a ghost (the first stepped one of its
+  // candidates: containing_or_near's answer), -1 if none.
+  std::int32_t source_tet(int l, std::int32_t node, int c) const;
   // Whether a tet of level l > 0 reaches into more than one coarser tet (never in nested levels).
   bool straddles(std::size_t l, std::int32_t t) const;
   void evaluate_node(int l, std::int32_t node, bool& changed);
@@ -157,11 +159,10 @@ class ActivationState {
   std::vector<std::int32_t> scratch_tets_;  // update()'s scratch
   std::vector<std::int32_t> rule_work_;     // refine_rule's stack (one per call was a malloc for each tet of a region)
   std::vector<std::size_t> straddling_;                   // per level: its tets that straddle coarser ones
-  // covered()'s answers within one level's evaluation (0: not asked, 1: covered, 2: not), and the
-  // nodes asked (forget_covered() clears them); marks that dedupe update()'s candidates.
-  mutable std::vector<std::vector<std::uint8_t>> covered_memo_;
-  mutable std::vector<std::int32_t> covered_memo_set_;
-  std::vector<std::vector<std::uint8_t>> node_mark_, tet_mark_;
+  // [l][c], c < l: CSR over the nodes of level l, the tets of level c that can be the node's ghost
+  // source or cover it, in the order containing_or_near prefers them (TetLocator::candidates).
+  std::vector<std::vector<std::vector<std::int32_t>>> cover_offsets_, cover_list_;
+  std::vector<std::vector<std::uint8_t>> node_mark_, tet_mark_;  // marks that dedupe update()'s candidates
 };
 
 }  // namespace pliant::detail

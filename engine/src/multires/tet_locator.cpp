@@ -308,6 +308,37 @@ bool TetLocator::covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, d
   });
 }
 
+void TetLocator::candidates(const Vec3d& p, double radius, std::int32_t hint, std::vector<std::int32_t>& out) const {
+  if (deep_inside(hint, p, radius)) {  // no other tet contains p or comes within radius
+    out.push_back(hint);
+    return;
+  }
+  // containing(): the tets of p's bucket whose smallest weight is >= -kInsideTolerance, by that
+  // weight (largest first; equal weights by index), as its comparisons rank them.
+  std::vector<std::pair<double, std::int32_t>> inside, near;
+  const Cell c = cell_of(p);
+  for (std::int32_t i = offsets_[bucket(c)]; i < offsets_[bucket(c) + 1]; ++i) {
+    const std::int32_t t = items_[std::size_t(i)];
+    const auto w = weights(t, p);
+    const double m = std::min({w[0], w[1], w[2], w[3]});
+    if (m >= -kInsideTolerance) inside.push_back({-m, t});
+  }
+  std::sort(inside.begin(), inside.end());
+  // The near search: every tet with a clamped distance below radius (its search starts at best =
+  // radius and never skips such a tet), by distance, equal distances by index; those found above
+  // come first already (when one is masked, the near search does not run).
+  if (radius > 0)
+    each_tet_near(p, radius, [&](std::int32_t t) {
+      const double d = clamped_distance(t, p);
+      if (d < radius) near.push_back({d, t});
+    });
+  std::sort(near.begin(), near.end());
+  near.erase(std::unique(near.begin(), near.end()), near.end());  // a tet is listed in every bucket it touches
+  for (const auto& e : inside) out.push_back(e.second);
+  for (const auto& e : near)
+    if (std::none_of(inside.begin(), inside.end(), [&](const auto& x) { return x.second == e.second; })) out.push_back(e.second);
+}
+
 NodeLocator::NodeLocator(const TetMesh& mesh) : mesh_(mesh) {
   Vec3d hi;
   bounds(mesh, lo_, hi);

@@ -38,6 +38,14 @@ class TetLocator {
   // which: the first masked tet that contains p or lies nearer than `radius` answers. (Coverage
   // asks only this, and most of the points it asks about lie in or next to a masked tet.)
   bool covers(const Vec3d& p, const std::vector<std::uint8_t>& mask, double radius, std::int32_t hint = -1) const;
+  // Appends to `out` every tet that answers containing_or_near(p, mask, radius, hint) for some
+  // mask, in the order it prefers them: for any mask its answer is the first masked tet of the list
+  // (with weights(t, p)), none if none is, and covers() is whether one is. The tets containing p
+  // within the tolerance first (largest smallest weight first, then lowest index), then the others
+  // nearer than `radius` (smallest clamped distance first, then lowest index); a hint p lies deeper
+  // than `radius` inside alone. ActivationState lists them once per node: a change then finds a
+  // node's ghost source, or whether a stepped tet covers it, from masks alone, without a search.
+  void candidates(const Vec3d& p, double radius, std::int32_t hint, std::vector<std::int32_t>& out) const;
   // Barycentric weights of p in tet t (sum 1, any sign).
   std::array<double, 4> weights(std::int32_t t, const Vec3d& p) const;
   // Appends (ascending, each once) the tets within `radius` (m) of p, as containing_or_near measures
