@@ -430,11 +430,18 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   int cap = cap_of(rung);
   std::vector<double> busy_load(std::size_t(top_rung) + 1, 0.0);  // per rung: the load of the window that found it busy
   std::vector<double> entry_load(std::size_t(top_rung) + 1, 0.0); // per rung: the load below it when it was entered
-  // Per rung left for a change that overran its frame: when it may be tried again, and the wait
-  // after the next such loss (s of simulated time; kChangeBackoff first, doubling).
-  constexpr double kChangeBackoff = 2.0;
+  // Per rung left for a heavy frame that says nothing of its load (a change of resolution that
+  // overran it, or a spike: below): when it may be tried again, and the wait after the next such
+  // loss (s of simulated time; kRetryBackoff first, doubling).
+  constexpr double kRetryBackoff = 2.0;
   std::vector<double> retry_at(std::size_t(top_rung) + 1, 0.0);
-  std::vector<double> change_backoff(std::size_t(top_rung) + 1, kChangeBackoff);
+  std::vector<double> retry_backoff(std::size_t(top_rung) + 1, kRetryBackoff);
+  // A spike: a heavy frame after at least a window at its rung whose load stayed below kSpikeBelow
+  // (the host took the core, or a one-off). Remembered busy at that frame's load, the 50k-tet
+  // organ's middle level (frames of 0.3-0.45 ms) was never tried again after one frame of 1.05 ms
+  // without a change, 52 ms into a 60 s run (2026-11-28).
+  constexpr double kSpikeBelow = 0.6;
+  double rung_since = world.time(), rung_busy = 0;  // since the rung was entered: s simulated, s stepping
   auto apply_rung = [&] {
     scale = scale_of(rung);
     cap = cap_of(rung);
@@ -547,6 +554,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
       }
       if (realtime && !adaptive_bodies.empty()) {
         window_busy += step_end - step_start;
+        rung_busy += step_end - step_start;
         const double window = world.time() - window_sim0;
         // A heavy frame ends the window at once (its rung has less room than the window's mean
         // shows: coarsen now rather than miss the frames left in the window).
@@ -575,13 +583,15 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
               // Not while settling: those frames carry the rung above, found busy already.
               // A frame heavy only by its change of resolution (its own stepping within kBusy, the
               // change taking it past its time) says nothing of the rung's load: the rung is tried
-              // again after kChangeBackoff, then twice as long each time (the 50k-tet organ's middle level lost at
+              // again after kRetryBackoff, then twice as long each time (the 50k-tet organ's middle level lost at
               // its first change of 0.7 ms was otherwise never tried again, its frames at 0.4 of
-              // the clock; 2026-11-28).
+              // the clock; 2026-11-28). So does a spike (kSpikeBelow).
               const bool by_change = frame_heavy && frame_busy - frame_change_busy <= kBusy * frame;
-              if (!frame_settles && by_change) {
-                retry_at[std::size_t(rung)] = world.time() + change_backoff[std::size_t(rung)];
-                change_backoff[std::size_t(rung)] *= 2;
+              const double held = world.time() - rung_since - frame;  // s at this rung before the frame
+              const bool spike = frame_heavy && held >= kControlWindow - eps && (rung_busy - frame_busy) / held < kSpikeBelow;
+              if (!frame_settles && (by_change || spike)) {
+                retry_at[std::size_t(rung)] = world.time() + retry_backoff[std::size_t(rung)];
+                retry_backoff[std::size_t(rung)] *= 2;
               } else if (!frame_settles) {
                 busy_load[std::size_t(rung)] = std::max({load, kBusy, frame_heavy ? frame_busy / frame : 0.0});
               }
@@ -617,6 +627,8 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
             }
             (rung < was ? s.controller_coarsened : s.controller_refined)++;
             apply_rung();
+            rung_since = world.time();
+            rung_busy = 0;
           }
           window_sim0 = world.time();
           window_busy = 0;
