@@ -350,6 +350,27 @@ TEST(RealTime, ARungLostToAChangeThatOverranIsTriedAgainLater) {
   EXPECT_LE(s.frames_over, s.controller_refined);  // each try costs at most the frame that ends it
 }
 
+TEST(RealTime, ARungFoundBusyIsTriedAgainAfterLongerAndLongerWaits) {
+  // A rung found busy is remembered so, and entered again before its retry time only if its load,
+  // scaled, would fit; after 2 s it is tried again, then after 4 s, 8 s (the load it was found at
+  // may be of a region it no longer has: the 50k-tet organ's middle rungs, found busy while they
+  // still carried the region of the rung above, were never tried again in a 60 s run) -- if the
+  // frame that found it busy fit its time. A rung whose own stepping overran its frame stays
+  // remembered (the organ's finest level, whose every try cost 4 late frames).
+  // The finest level at FINE x the clock, over 7 s: at 0.85 its frames fit, at 2 they overrun.
+  const RunSummary fits = costed_run(true, 0.85, {}, -1, 0, 2, 7.0);
+  const RunSummary overruns = costed_run(true, 2.0, {}, -1, 0, 2, 7.0);
+  for (const auto& [name, s] : {std::pair{"0.85", &fits}, std::pair{"2", &overruns}})
+    std::printf("finest at %s x the clock over 7 s: refined %lld, coarsened %lld, %lld frames over their time, %lld late\n", name,
+                static_cast<long long>(s->controller_refined), static_cast<long long>(s->controller_coarsened),
+                static_cast<long long>(s->frames_over), static_cast<long long>(s->deadline_misses));
+  EXPECT_EQ(fits.controller_refined, 3);  // at 0.02 s, about 2 s and about 6 s (measured; remembered for good: 1)
+  EXPECT_EQ(fits.controller_coarsened, fits.controller_refined);
+  EXPECT_EQ(fits.deadline_misses, 0);
+  EXPECT_EQ(overruns.controller_refined, 1);
+  EXPECT_EQ(overruns.deadline_misses, 0);
+}
+
 TEST(RealTime, ARungLostToASpikeIsTriedAgainLater) {
   // The finest level costs 0.4 of the clock: the controller holds it. At 0.5 s one step costs 1 ms
   // more (the host took the core): that frame is heavy, and the controller steps down at once. The

@@ -390,7 +390,13 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   //  - A window below kIdle of its time and on time steps one rung up, unless that rung was already
   //    found busy: then only if the load it measured there, scaled by how the load here changed
   //    since, would now stay below kBusy (without this memory, a rung that costs 0.9 of the clock was
-  //    retried every other window, missing frames each time).
+  //    retried every other window, missing frames each time), or once kRetryBackoff has passed since
+  //    it was found busy, twice as long each time, if its frame then fit its time (its own stepping,
+  //    changes of resolution left out). (Remembered for good, the rungs the 50k-tet organ passed on
+  //    its way down, each found busy while it still carried the region of the rung above at 0.85 of
+  //    the clock, were never tried again: 59.5 s of a 60 s run at its coarsest level, 2026-11-28.
+  //    A rung whose own stepping overran its frame, the organ's finest level at 1.4-1.8 ms, stays
+  //    remembered: each try of it cost 4 late frames.)
   //  - Each decision may split at most kSplitsPerDecision nodes (World::set_adapt_split_budget): a
   //    region refines over successive decisions, so that the load rises by steps the controller
   //    sees, and no frame absorbs a whole region's split (one split applies in ~0.2 ms on the
@@ -436,6 +442,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   constexpr double kRetryBackoff = 2.0;
   std::vector<double> retry_at(std::size_t(top_rung) + 1, 0.0);
   std::vector<double> retry_backoff(std::size_t(top_rung) + 1, kRetryBackoff);
+  std::vector<std::uint8_t> overran(std::size_t(top_rung) + 1, 0);  // per rung: found busy by a frame its own stepping overran
   // A spike: a heavy frame after at least a window at its rung whose load stayed below kSpikeBelow
   // (the host took the core, or a one-off). Remembered busy at that frame's load, the 50k-tet
   // organ's middle level (frames of 0.3-0.45 ms) was never tried again after one frame of 1.05 ms
@@ -594,6 +601,9 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
                 retry_backoff[std::size_t(rung)] *= 2;
               } else if (!frame_settles) {
                 busy_load[std::size_t(rung)] = std::max({load, kBusy, frame_heavy ? frame_busy / frame : 0.0});
+                retry_at[std::size_t(rung)] = world.time() + retry_backoff[std::size_t(rung)];
+                retry_backoff[std::size_t(rung)] *= 2;
+                overran[std::size_t(rung)] = frame_heavy ? frame_busy - frame_change_busy > frame : load > 1;
               }
               --rung;
             } else if (load > 1 && !coarsest_warned) {
@@ -610,8 +620,11 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
             }
           } else if (load < kIdle && behind <= 0 && rung < top_rung && !frame_settles) {
             const auto up = std::size_t(rung) + 1;
-            const bool known_busy = busy_load[up] > 0;
-            if (world.time() >= retry_at[up] && (!known_busy || busy_load[up] * load / entry_load[up] < kBusy)) {
+            // Before its retry time, a rung found busy is entered again only if its load scaled
+            // fits; after it, any rung is (its memory may be of a region it no longer has), unless
+            // its own stepping overran a frame.
+            const bool fits = busy_load[up] > 0 && busy_load[up] * load / entry_load[up] < kBusy;
+            if ((world.time() >= retry_at[up] && !overran[up]) || fits) {
               entry_load[up] = std::max(load, 1e-9);
               ++rung;
             }
