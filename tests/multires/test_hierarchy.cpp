@@ -508,8 +508,9 @@ TEST(TetLocator, TheFirstMaskedCandidateIsContainingOrNearsAnswer) {
         break;
       }
     EXPECT_EQ(first, want.tet) << "radius " << radius << " hint " << hint;
-    if (first >= 0 && first == want.tet)
+    if (first >= 0 && first == want.tet) {
       for (int c = 0; c < 4; ++c) EXPECT_EQ(l.weights(first, p)[std::size_t(c)], want.weights[std::size_t(c)]);
+    }
     EXPECT_EQ(l.covers(p, mask, radius, hint), first >= 0);
     return first >= 0 && l.containing(p, mask).tet < 0;  // found by the near search
   };

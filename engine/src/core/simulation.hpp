@@ -399,7 +399,7 @@ class Simulation {
   std::vector<LevelJobState<T>> job_state_;
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
-  std::vector<std::int32_t> list_position_;  // prepare()'s scratch: 1 + a listed level's tet's list position, 0 if not listed
+  std::vector<std::int32_t> list_position_;  // prepare()'s scratch: list_gather_incidence's cursor per node
   void list_gather_incidence(const Level<T>& L, LevelJobState<T>& js);
   static void list_rest_data(const Level<T>& L, LevelJobState<T>& js);
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
