@@ -21,7 +21,8 @@ std::size_t pages_of(const World& w) {
   return pages;
 }
 
-World two_level_box() {
+// A two-level box, all fine (the default `active`) or adaptive.
+World two_level_box(bool adaptive = false) {
   WorldDef wd;
   World w(wd);
   BodyDef b;
@@ -29,6 +30,7 @@ World two_level_box() {
   b.mesh.max = {0.2, 0.05, 0.05};
   b.mesh.cells = {24, 6, 6};
   b.multiresolution.levels = 2;
+  if (adaptive) b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
   w.add_body(b);
   return w;
 }
@@ -61,15 +63,7 @@ TEST(TouchPages, AnAdaptiveBodysCycleReadsItsHierarchyAndActivationToo) {
   // locators and hierarchy cold (update() of the 50k-tet organ 1.1-1.8 ms against 0.5 warm): a
   // cycle reads those arrays too, after its levels' (at least the hierarchy's meshes: each level's
   // points and tets), each page once, in calls that go round as above.
-  WorldDef wd;
-  World w(wd);
-  BodyDef b;
-  b.mesh.min = {0, 0, 0};
-  b.mesh.max = {0.2, 0.05, 0.05};
-  b.mesh.cells = {24, 6, 6};
-  b.multiresolution.levels = 2;
-  b.multiresolution.active.kind = ActiveDef::Kind::adaptive;
-  w.add_body(b);
+  World w = two_level_box(true);
   std::size_t meshes = 0;
   for (int l = 0; l < w.level_count(0); ++l) {
     const LevelInfo i = w.level_info(0, l);
