@@ -98,7 +98,7 @@ int main(int argc, char** argv) {
       w.set_adapt_scale(id, scale);
       if (cap >= 0) w.set_adapt_cap(id, std::min(cap, w.level_count(id) - 1));
       if (budget > 0) w.set_adapt_split_budget(id, budget);
-      if (change_interval > 0) w.set_adapt_change_interval(id, change_interval);
+      if (change_interval != 0) w.set_adapt_change_interval(id, change_interval);  // (World rejects < 0, NaN)
     }
     const auto steps = std::int64_t(std::llround(duration / w.dt()));
     const auto per_frame = std::max<std::int64_t>(1, std::llround(frame / w.dt()));
