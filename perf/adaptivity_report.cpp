@@ -354,6 +354,15 @@ void realtime() {
       if (n.find("real-time priority") != std::string::npos)
         fmt::print("\n{} run: {}.", t == &a ? "Adaptive" : "Uniform finest", n);
   fmt::print("\n");
+  {
+    const RunSummary& r = a.summary;
+    fmt::print("\nOf the adaptive run's {} late frames, {} started late (behind the frame before, or a wait that woke up late), "
+               "{} started on time and held a change of resolution, {} were late by their stepping alone; {} frames started "
+               "early, as soon as the frame before ended, because a decision could come in them (a change then has that "
+               "frame's slack too).\n",
+               r.deadline_misses, r.late_behind, r.late_changing, r.deadline_misses - r.late_behind - r.late_changing,
+               r.frames_early);
+  }
   fmt::print("\nThe hierarchy (from the adaptive run):\n\n");
   fmt::print("| level | tets | stable step (us) | period (ticks) | step (us) | stepped tets, mean (adaptive) | tet updates / s if it were all this level |\n|---|---|---|---|---|---|---|\n");
   const RunSummary& s = a.summary;

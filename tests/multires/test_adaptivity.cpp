@@ -512,6 +512,52 @@ TEST(Adaptivity, AChangeIntervalHoldsTheNextDecisionBack) {
   }
 }
 
+TEST(Adaptivity, TheNextDecisionComesAtTheFirstAlignedTickFromItsAnnouncedTime) {
+  // World::adapt_next_decision, which the real-time runner reads to start a frame early: no
+  // decision point comes before the time it announced before the step, and each comes within one
+  // step of the coarsest level after it (the first tick from then on where every level's window
+  // ends). The bent bar of the tests above, with and without a change interval; a lowered cap
+  // brings the next decision to the next such tick. A body that is not adaptive never decides.
+  for (const double interval : {0.0, 0.01}) {
+    World w(no_gravity());
+    w.add_body(pushed_bar(0.03, true));
+    if (interval > 0) w.set_adapt_change_interval(0, interval);
+    const double coarse_step = w.level_info(0, 0).dt;
+    std::int64_t checks = 0, changes = 0;
+    double latest = 0;  // s: the most a decision point came after its announced time (or after the step began)
+    while (w.time() < 0.3) {
+      const double announced = w.adapt_next_decision(0), began = w.time();
+      w.step();
+      if (w.adapt_stats(0).checks == checks) {
+        EXPECT_LT(w.time() + 1e-12, std::max(announced, began) + coarse_step) << "no decision point at t = " << w.time();
+        continue;
+      }
+      checks = w.adapt_stats(0).checks;
+      EXPECT_GE(w.time() + 1e-12, announced) << "a decision point before its announced time, t = " << w.time();
+      latest = std::max(latest, w.time() - std::max(announced, began));
+      if (w.adapt_stats(0).changes > changes) {
+        changes = w.adapt_stats(0).changes;
+        EXPECT_GE(w.adapt_next_decision(0) + 1e-12, w.time() + interval);
+      }
+    }
+    std::printf("change interval %g s: %lld decision points, %lld changes; the latest came %.3g s after its announced time "
+                "(coarsest step %.3g s)\n",
+                interval, static_cast<long long>(checks), static_cast<long long>(changes), latest, coarse_step);
+    EXPECT_GT(checks, 10);
+    EXPECT_GT(changes, 1);
+    // A lowered cap: at the next tick where every window ends, unless a change interval holds it.
+    const double before = w.adapt_next_decision(0);
+    w.set_adapt_cap(0, 0);
+    EXPECT_LE(w.adapt_next_decision(0), before);
+    EXPECT_LE(w.adapt_next_decision(0), std::max(w.time(), interval > 0 ? w.time() + interval : 0.0));
+  }
+  World fixed(no_gravity());
+  BodyDef all_fine = pushed_bar(0.03, true);
+  all_fine.multiresolution.active.kind = ActiveDef::Kind::finest;
+  fixed.add_body(all_fine);
+  EXPECT_EQ(fixed.adapt_next_decision(0), std::numeric_limits<double>::infinity());
+}
+
 TEST(Adaptivity, ATouchingToolRefinesAroundItAndItsRegionCoarsensWhenItLeaves) {
   // refine_near only: no strain splits (threshold out of reach), and merges as soon as allowed.
   World w(no_gravity());

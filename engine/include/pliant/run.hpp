@@ -116,6 +116,14 @@ struct RunSummary {
   // most a frame started after its due time although it had waited for it (the OS's scheduling).
   std::int64_t frames_over = 0;
   double wake_late_max_s = 0;
+  // Frames that started before their time, as soon as the frame before ended, because an adaptive
+  // body could change its resolution in them (World::adapt_next_decision): the change gets the
+  // slack of the frame before too.
+  std::int64_t frames_early = 0;
+  // Of the deadline misses: late_behind started after their time (behind the frame before, or a
+  // wait that woke up late); late_changing started on time and held a change of resolution; the
+  // rest started on time and were late by their stepping alone.
+  std::int64_t late_behind = 0, late_changing = 0;
   // Pages of the bodies' arrays read in the waits before frames (World::touch_pages), to keep
   // memory that idle levels leave untouched from going cold under a host that reclaims it.
   std::int64_t pages_touched = 0;

@@ -235,6 +235,13 @@ class World {
   // (2.3 ms of stepping). Decisions stay at fixed points of the tick sequence (any thread count).
   void set_adapt_change_interval(BodyId body, double seconds);
   double adapt_change_interval(BodyId body) const;
+  // The earliest simulated time (s) at which an adaptive body's next decision may come: the later
+  // of its next check_every and the end of its change interval; the decision comes at the first
+  // tick from then on where every level's window ends (-infinity: forced, at the next such tick;
+  // +infinity for a body that is not adaptive). A tool pressing a triangle it cannot push may bring
+  // one sooner. `pliant run --realtime` starts a frame that holds one early, in the slack of the
+  // frame before (docs/multiresolution.md).
+  double adapt_next_decision(BodyId body) const;
 
   // ---- skins (pliant/skin.hpp, BodyDef::skin) ----
   bool has_skin(BodyId body) const;

@@ -609,6 +609,12 @@ double World::adapt_change_interval(BodyId b) const {
     return body.adapt ? body.adapt->change_interval : 0.0;
   });
 }
+double World::adapt_next_decision(BodyId b) const {
+  return impl_->visit([&](auto& s) {
+    const auto& body = impl_->body(s, b);
+    return body.adapt ? body.adapt->next_decision() : std::numeric_limits<double>::infinity();
+  });
+}
 void World::set_adapt_cap(BodyId b, int level) {
   impl_->visit([&](auto& s) {
     auto& body = impl_->body(s, b);

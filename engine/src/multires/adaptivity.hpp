@@ -8,6 +8,7 @@
 // there (barycentric, from the neighbouring level); the mass stays exactly rho x volume and the
 // body's linear momentum is kept to rounding (a uniform velocity correction over the free nodes).
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <functional>
@@ -99,6 +100,13 @@ struct AdaptiveState {
     if (forced_target >= 0) return true;
     if (t + 1e-12 < last_change + change_interval) return false;
     return unresolved || t + 1e-12 >= next_check;
+  }
+  // The earliest time (s) from which decision_due holds without an unresolved contact: the later
+  // of next_check and the end of the change interval (-infinity when forced). The decision itself
+  // comes at the first tick from then on where every level's window ends (World::adapt_next_decision).
+  double next_decision() const {
+    if (forced_target >= 0) return -std::numeric_limits<double>::infinity();
+    return std::max(next_check, last_change + change_interval);
   }
 };
 
