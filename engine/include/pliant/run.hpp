@@ -121,8 +121,8 @@ struct RunSummary {
   // slack of the frame before too.
   std::int64_t frames_early = 0;
   // Of the deadline misses: late_behind started after their time (behind the frame before, or a
-  // wait that woke up late); late_changing started on time and held a change of resolution; the
-  // rest started on time and were late by their stepping alone.
+  // wait that woke up late); late_changing started on time (or early) and held a change of resolution; the
+  // rest started on time (or early) and were late by their stepping alone.
   std::int64_t late_behind = 0, late_changing = 0;
   // Pages of the bodies' arrays read in the waits before frames (World::touch_pages), to keep
   // memory that idle levels leave untouched from going cold under a host that reclaims it.
