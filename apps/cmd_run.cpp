@@ -255,7 +255,7 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
       const bool framed = s.realtime_frame_s > 0;
       const std::string frames = framed ? fmt::format("frames of {:.3g} ms", 1e3 * s.realtime_frame_s) : "steps";
       fmt::print("real time: {:.3g} simulated s per wall s; {} of {} {} ended after their wall-clock time ({} took longer "
-                 "than their time to step; of the late, {} started late and {} held a change of resolution; waits woke up to "
+                 "than their time to step; of the late, {} only by starting late and {} holding a change of resolution; waits woke up to "
                  "{:.0f} us late; {} started early, ahead of a change of resolution); {} stepping {:.0f} us mean, p99 {:.0f}, "
                  "max {:.0f}; lag mean {:.3g} s, max {:.3g} s\n",
                  s.realtime_factor, s.deadline_misses, s.frames, frames, s.frames_over, s.late_behind, s.late_changing,

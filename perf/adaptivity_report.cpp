@@ -356,8 +356,8 @@ void realtime() {
   fmt::print("\n");
   {
     const RunSummary& r = a.summary;
-    fmt::print("\nOf the adaptive run's {} late frames, {} started late (behind the frame before, or a wait that woke up late), "
-               "{} started on time (or early) and held a change of resolution, {} were late by their stepping alone; {} frames started "
+    fmt::print("\nOf the adaptive run's {} late frames, {} were late only by starting late (behind the frame before, or a wait that "
+               "woke up late), {} by their own work holding a change of resolution, {} by their stepping alone; {} frames started "
                "early, as soon as the frame before ended, because a decision could come in them (a change then has that "
                "frame's slack too).\n",
                r.deadline_misses, r.late_behind, r.late_changing, r.deadline_misses - r.late_behind - r.late_changing,

@@ -282,7 +282,10 @@ TEST(RealTime, AFrameLateFromAWaitThatWokeUpLateDoesNotCoarsen) {
               static_cast<long long>(woke.deadline_misses), woke.lag_max_s, static_cast<long long>(woke.controller_refined),
               static_cast<long long>(woke.controller_coarsened), static_cast<long long>(calm.controller_refined),
               static_cast<long long>(calm.controller_coarsened));
+  std::printf("of the late frames: %lld only by starting late, %lld holding a change\n",
+              static_cast<long long>(woke.late_behind), static_cast<long long>(woke.late_changing));
   EXPECT_GT(woke.deadline_misses, 0);
+  EXPECT_EQ(woke.late_behind, woke.deadline_misses);  // each late only by starting late
   EXPECT_NEAR(woke.lag_max_s, 0.002, 1e-9);  // the late wake-up itself (measured 0.002 to 1e-15)
   EXPECT_EQ(woke.controller_refined, calm.controller_refined);
   EXPECT_EQ(woke.controller_coarsened, calm.controller_coarsened);
@@ -341,7 +344,7 @@ TEST(RealTime, ARungLostToAChangeThatOverranIsTriedAgainLater) {
   // after the run). Measured over 7 s: 3 tries, 12 changes, 10 frames over their time (a change
   // within the room of an early start is not held against the rung), 5 late: the frame that ends
   // each try, and two of the merges at the lowered cap after it (a change of 0.9 ms too, in a frame
-  // that starts late). Before the retries, the rung was remembered busy at the overrun frame's
+  // that starts late): 4 late by their changes, 1 only by starting late. Before the retries, the rung was remembered busy at the overrun frame's
   // load and never tried again: 1 try. (Changes of 0.5 ms, which the early start absorbs now, gave
   // 3 tries, 3 frames over their time and 1 late before it.)
   const RunSummary s = costed_run(true, 0.6, {}, -1, 0.9e-3, 2, 7.0);
@@ -351,7 +354,11 @@ TEST(RealTime, ARungLostToAChangeThatOverranIsTriedAgainLater) {
               static_cast<long long>(s.adapt.at(0).changes));
   EXPECT_EQ(s.controller_refined, 3);
   EXPECT_EQ(s.controller_coarsened, 3);
+  std::printf("of the late frames: %lld only by starting late, %lld holding a change\n",
+              static_cast<long long>(s.late_behind), static_cast<long long>(s.late_changing));
   EXPECT_LE(s.deadline_misses, 2 * s.controller_refined);  // each try: the frame that ends it, and its merge
+  EXPECT_EQ(s.late_changing, s.deadline_misses - s.late_behind);  // late by their changes, not their stepping
+  EXPECT_GE(s.late_changing, s.controller_refined);
 }
 
 TEST(RealTime, AFrameThatMayChangeTheResolutionStartsEarlyAndItsChangeFits) {

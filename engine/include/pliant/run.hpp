@@ -120,9 +120,9 @@ struct RunSummary {
   // body could change its resolution in them (World::adapt_next_decision): the change gets the
   // slack of the frame before too.
   std::int64_t frames_early = 0;
-  // Of the deadline misses: late_behind started after their time (behind the frame before, or a
-  // wait that woke up late); late_changing started on time (or early) and held a change of resolution; the
-  // rest started on time (or early) and were late by their stepping alone.
+  // Of the deadline misses: late_behind would have been on time had they started on time (they
+  // started late, behind the frame before or a wait that woke up late); of the others,
+  // late_changing held a change of resolution, and the rest were late by their stepping alone.
   std::int64_t late_behind = 0, late_changing = 0;
   // Pages of the bodies' arrays read in the waits before frames (World::touch_pages), to keep
   // memory that idle levels leave untouched from going cold under a host that reclaims it.

@@ -364,7 +364,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   bool frame_open = false;
   double frame_end = sim0, frame_busy = 0;
   double frame_change_busy = 0;  // s of frame_busy spent in steps that changed an adaptive body's resolution
-  bool frame_started_late = false;  // the frame started after the wall-clock time of its start
+  double frame_start_late = 0;  // s: how long after the wall-clock time of its start the frame started (>= 0)
   double frame_room = 0;         // s of wall time from the frame's start to its deadline (more than a frame if it started early)
   TickStats frame_stats;
   detail::ThreadPriority priority;  // restored when the run ends
@@ -526,7 +526,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         frame_open = true;
         frame_busy = 0;
         frame_change_busy = 0;
-        frame_started_late = wall_now() > wall0 + (world.time() - sim0) + 1e-9;
+        frame_start_late = std::max(0.0, wall_now() - (wall0 + (world.time() - sim0)));
         frame_room = std::max(frame, wall0 + (next_end - sim0) - wall_now());
         if (frame > 0 && frame_room > frame) ++s.frames_early;
         // Whether this frame still carries the rung the controller has just left (settling): until
@@ -574,7 +574,7 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
         const double lag = (step_end - wall0) - (world.time() - sim0);  // > 0: ended after its wall-clock time
         if (lag > 0) {
           ++s.deadline_misses;
-          if (frame_started_late) {
+          if (lag <= frame_start_late) {  // on time, had it started on time
             ++s.late_behind;
           } else if (frame_change_busy > 0) {
             ++s.late_changing;
