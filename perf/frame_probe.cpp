@@ -10,7 +10,8 @@
 // --budget and --change-interval set what the real-time controller sets (2 splits a decision, one
 // change a frame: World::set_adapt_split_budget and set_adapt_change_interval).
 // --paced 1 waits for each frame's wall-clock time as `pliant run --realtime` does (then memory
-// the idle levels leave untouched ages as in a real-time run); --touch reads that many pages of
+// the idle levels leave untouched ages as in a real-time run), but always for the frame's own
+// time: the runner starts a frame that may change the resolution up to a frame early; --touch reads that many pages of
 // the bodies' arrays in each wait (World::touch_pages; the runner reads up to 64); --lift-at lifts
 // the cap at that simulated time (to the finest level, or to --lift-to LEVEL) and prints the frames
 // that follow it (what a try of the finer levels costs after they sat idle).
