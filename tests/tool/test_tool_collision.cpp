@@ -252,6 +252,32 @@ void margin_edge(Precision precision) {
   EXPECT_EQ(moved_by(1.01), 1);
   EXPECT_EQ(moved_by(0.99), 0) << "a vertex well within the margin refit the BVH";
   EXPECT_EQ(moved_by(0.5), 0);
+
+  // Only simulated vertices are read (LevelContact::simulated, from the node states): an inactive
+  // node (a multiresolution level's part where another level is active) moved beyond the margin
+  // refits nothing, and no triangle with it as a corner is a hit anyway; a simulated one still does.
+  // Node n made inactive, with another node m of the surface kept simulated.
+  const auto m = std::size_t(lc.surface_nodes[0]);
+  ASSERT_NE(m, n);
+  L.state[n] = kNodeInactive;
+  detail::note_simulated_surface(lc, L);
+  EXPECT_EQ(lc.simulated.size(), lc.surface_nodes.size() - 1);
+  EXPECT_EQ(moved_by(2), 0) << "an inactive vertex moved beyond the margin refit the BVH";
+  const auto moved_m = [&](double factor) {
+    for (int k = 0; k < 3; ++k) L.x[k] = L.X[k];
+    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
+    const auto at_rest = lc.refits;
+    L.x[0][m] = T(double(L.X[0][m]) + factor * lc.margin);
+    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
+    return lc.refits - at_rest;
+  };
+  EXPECT_EQ(moved_m(1 + 1e-5), 1) << "a simulated vertex beyond the margin did not refit the BVH";
+  EXPECT_EQ(moved_m(0.99), 0);
+  // Simulated again: read again (the list is empty when every vertex is simulated).
+  L.state[n] = kNodeFree;
+  detail::note_simulated_surface(lc, L);
+  EXPECT_TRUE(lc.simulated.empty());
+  EXPECT_EQ(moved_by(1.01), 1);
 }
 
 TEST(ToolCollision, AVertexBeyondTheMarginRefitsTheBvhFloat) { margin_edge<float>(Precision::float32); }

@@ -36,6 +36,10 @@ struct LevelContact {
   // (checking that costs a read of the vertices, a refit ~14 ns per triangle: docs/tool.md).
   double margin = 0;          // m: a quarter of the mean boundary edge
   std::int64_t refits = 0, queries = 0;
+  // The surface vertices whose node is simulated (not inactive), when some are not: the only ones
+  // the margin check reads (note_simulated_surface; empty: all of them). A triangle with an
+  // inactive corner is never a hit, so where such a node stands does not matter to the hits.
+  std::vector<std::int32_t> simulated;
   // Results of the level's last window.
   Vec3d force{};          // N, world frame
   double work = 0;        // J, the energy the tool gave up to the level (ToolReading::work)
@@ -51,6 +55,12 @@ struct LevelContact {
 template <class T>
 LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int body, int level, Executor& exec,
                                    const ToolPose& pose);
+
+// Lists lc.simulated from L's node states. Called when the contact is made and whenever the node
+// states change (Simulation::prepare, after a change of resolution): on the 50k-tet organ the margin
+// check read all 6 000 surface vertices of a level stepping a few hundred tets at every tick.
+template <class T>
+void note_simulated_surface(LevelContact<T>& lc, const Level<T>& L);
 
 // Detection only: refits the BVH to L's positions and fills lc.hits with the surface triangles
 // (with at least one free vertex) that the tool, moving from `from` to `to`, reaches within its

@@ -253,6 +253,9 @@ void Simulation<T>::prepare(double tick_dt) {
   tick_segments_[kPhaseElements].reserve(pieces);
   tick_predicates_[kPhaseNodes].reserve(node_pieces_.size());
   tick_predicates_[kPhaseIntegrate].reserve(node_pieces_.size());
+  // The tools' margin checks read the simulated surface vertices only (LevelContact::simulated).
+  for (ToolState<T>& tool : tools)
+    for (LevelContact<T>& lc : tool.levels) note_simulated_surface(lc, bodies[std::size_t(lc.body)].levels[std::size_t(lc.level)]);
 }
 
 template <class T>
