@@ -58,7 +58,7 @@ LevelContact<T> make_level_contact(EmbreeDevice& device, const Level<T>& L, int 
 
 // Lists lc.simulated from L's node states. Called when the contact is made and whenever the node
 // states change (Simulation::prepare, after a change of resolution): on the 50k-tet organ the margin
-// check read all 6 000 surface vertices of a level stepping a few hundred tets at every tick.
+// check read every surface vertex of a level stepping a region of it, at every tick.
 template <class T>
 void note_simulated_surface(LevelContact<T>& lc, const Level<T>& L);
 
