@@ -240,14 +240,15 @@ void margin_edge(Precision precision) {
   far.position = {origin[0] + 1, origin[1], origin[2]};  // touches nothing: only the margin check acts
   std::string error;
   const auto n = std::size_t(lc.surface_nodes[lc.surface_nodes.size() / 2]);
-  const auto moved_by = [&](double factor) {  // node n at factor x margin along x from its rest, then a query
+  const auto moved = [&](std::size_t node, double factor) {  // the node at factor x margin along x from its rest, then a query
     for (int k = 0; k < 3; ++k) L.x[k] = L.X[k];
     EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;  // refit at rest if needed
     const auto at_rest = lc.refits;
-    L.x[0][n] = T(double(L.X[0][n]) + factor * lc.margin);
+    L.x[0][node] = T(double(L.X[0][node]) + factor * lc.margin);
     EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
     return lc.refits - at_rest;
   };
+  const auto moved_by = [&](double factor) { return moved(n, factor); };
   EXPECT_EQ(moved_by(1 + 1e-5), 1) << "a vertex beyond the margin did not refit the BVH";
   EXPECT_EQ(moved_by(1.01), 1);
   EXPECT_EQ(moved_by(0.99), 0) << "a vertex well within the margin refit the BVH";
@@ -263,16 +264,8 @@ void margin_edge(Precision precision) {
   detail::note_simulated_surface(lc, L);
   EXPECT_EQ(lc.simulated.size(), lc.surface_nodes.size() - 1);
   EXPECT_EQ(moved_by(2), 0) << "an inactive vertex moved beyond the margin refit the BVH";
-  const auto moved_m = [&](double factor) {
-    for (int k = 0; k < 3; ++k) L.x[k] = L.X[k];
-    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
-    const auto at_rest = lc.refits;
-    L.x[0][m] = T(double(L.X[0][m]) + factor * lc.margin);
-    EXPECT_TRUE(detail::find_tool_contacts(lc, L, shape, far, far, origin, exec, error)) << error;
-    return lc.refits - at_rest;
-  };
-  EXPECT_EQ(moved_m(1 + 1e-5), 1) << "a simulated vertex beyond the margin did not refit the BVH";
-  EXPECT_EQ(moved_m(0.99), 0);
+  EXPECT_EQ(moved(m, 1 + 1e-5), 1) << "a simulated vertex beyond the margin did not refit the BVH";
+  EXPECT_EQ(moved(m, 0.99), 0);
   // Simulated again: read again (the list is empty when every vertex is simulated).
   L.state[n] = kNodeFree;
   detail::note_simulated_surface(lc, L);
