@@ -11,6 +11,7 @@
 #include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <random>
 #include <set>
@@ -211,6 +212,47 @@ TEST(ClosestPoints, SegmentTriangleAgreesWithHullDistanceOnRandomShapes) {
   }
   EXPECT_LT(worst, 5e-15);  // both exact: they differ by rounding only (measured 1.1e-15)
   std::printf("largest difference of distances over 40000 shapes: %.3g\n", worst);
+}
+
+// A sphere's contact (its axis a point) takes closest_point_triangle, a shortcut of the general
+// segment case for p == q: it must return the general case's bits (distance, segment parameter,
+// point and weights), most of all where rounding picks between a face's and an edge's nearest
+// point: points in the triangle's plane, on its edges and corners, near-degenerate triangles.
+TEST(ClosestPoints, APointTakesTheGeneralSegmentCasesBits) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1), w01(0, 1);
+  int edge_won = 0;  // cases where the general path's edge test beat closest_on_triangle by a rounding
+  for (int i = 0; i < 200000; ++i) {
+    const P3 a{u(rng), u(rng), u(rng)}, b{u(rng), u(rng), u(rng)};
+    P3 c{u(rng), u(rng), u(rng)};
+    if (i % 7 == 0) c = detail::add(a, detail::mul(detail::sub(b, a), w01(rng)));  // degenerate: c on ab
+    P3 p{u(rng), u(rng), u(rng)};
+    switch (i % 5) {
+      case 1: {  // in the plane, inside or outside
+        const double s = 2 * u(rng), t = 2 * u(rng);
+        p = detail::add(a, detail::add(detail::mul(detail::sub(b, a), s), detail::mul(detail::sub(c, a), t)));
+        break;
+      }
+      case 2: p = detail::add(b, detail::mul(detail::sub(c, b), w01(rng))); break;  // on an edge
+      case 3: p = (i % 2) ? a : c; break;                                            // on a corner
+      case 4: {  // off an edge, along the face's normal and across the edge
+        const P3 e = detail::add(a, detail::mul(detail::sub(b, a), w01(rng)));
+        const P3 n = detail::cross(detail::sub(b, a), detail::sub(c, a));
+        p = detail::add(e, detail::mul(n, 1e-9 * u(rng)));
+        break;
+      }
+      default: break;
+    }
+    const detail::SegmentTriangle fast = detail::closest_point_triangle(p, a, b, c);
+    const detail::SegmentTriangle general = detail::closest_segment_triangle_general(p, p, a, b, c);
+    ASSERT_EQ(std::memcmp(&fast.distance2, &general.distance2, sizeof(double)), 0) << i;
+    ASSERT_EQ(std::memcmp(&fast.s, &general.s, sizeof(double)), 0) << i;
+    ASSERT_EQ(std::memcmp(fast.on_triangle.point.data(), general.on_triangle.point.data(), 3 * sizeof(double)), 0) << i;
+    ASSERT_EQ(std::memcmp(fast.on_triangle.w.data(), general.on_triangle.w.data(), 3 * sizeof(double)), 0) << i;
+    const detail::TrianglePoint face = detail::closest_on_triangle(p, a, b, c);
+    edge_won += std::memcmp(face.point.data(), general.on_triangle.point.data(), 3 * sizeof(double)) != 0;
+  }
+  std::printf("the edge test changed the nearest point in %d of 200000 cases\n", edge_won);
 }
 
 // The lazy refit's margin check at its edge: a surface vertex moved a hair beyond the margin from

@@ -97,7 +97,37 @@ struct SegmentTriangle {
   TrianglePoint on_triangle;
 };
 
-inline SegmentTriangle closest_segment_triangle(const P3& p, const P3& q, const P3& a, const P3& b, const P3& c) {
+// The segment reduced to a point p (a sphere's axis, or its path over a step that did not move
+// it): what closest_segment_triangle computes for p == q, with the same arithmetic (so the same
+// bits) and without what cannot change its result there: the plane test (dp == dq) and the
+// second end (the same point). The edges are still tried: their nearest points, computed another
+// way than closest_on_triangle's, can come out closer by a rounding, and the general path takes them.
+inline SegmentTriangle closest_point_triangle(const P3& p, const P3& a, const P3& b, const P3& c) {
+  SegmentTriangle best;
+  best.on_triangle = closest_on_triangle(p, a, b, c);
+  best.distance2 = norm2(sub(p, best.on_triangle.point));
+  const P3* corner[3] = {&a, &b, &c};
+  for (int e = 0; e < 3; ++e) {
+    const P3& u = *corner[e];
+    const P3& v = *corner[(e + 1) % 3];
+    // closest_segment_segment(p, p, u, v): s = 0, and t as it computes it.
+    const P3 d2 = sub(v, u), r = sub(p, u);
+    const double len2 = dot(d2, d2);
+    const double t = len2 <= 1e-300 ? 0.0 : std::clamp(dot(d2, r) / len2, 0.0, 1.0);
+    const P3 x = add(p, mul(sub(p, p), 0.0)), y = add(u, mul(d2, t));
+    const double dist2 = norm2(sub(x, y));
+    if (dist2 < best.distance2) {
+      TrianglePoint tp{y, {0, 0, 0}};
+      tp.w[std::size_t(e)] = 1 - t;
+      tp.w[std::size_t((e + 1) % 3)] = t;
+      best = {dist2, 0.0, tp};
+    }
+  }
+  return best;
+}
+
+// The general case (p == q included: the tests compare closest_point_triangle with it).
+inline SegmentTriangle closest_segment_triangle_general(const P3& p, const P3& q, const P3& a, const P3& b, const P3& c) {
   // Crossing: the segment meets the triangle's plane inside the triangle (distance 0).
   const P3 n = cross(sub(b, a), sub(c, a));
   const double dp = dot(n, sub(p, a)), dq = dot(n, sub(q, a));
@@ -139,6 +169,10 @@ inline SegmentTriangle closest_segment_triangle(const P3& p, const P3& q, const 
     }
   }
   return best;
+}
+
+inline SegmentTriangle closest_segment_triangle(const P3& p, const P3& q, const P3& a, const P3& b, const P3& c) {
+  return p == q ? closest_point_triangle(p, a, b, c) : closest_segment_triangle_general(p, q, a, b, c);
 }
 
 // Squared distance (m^2) between two triangles: 0 if they meet, else the smallest over the
