@@ -289,6 +289,15 @@ bool Executor::run_phases(const Phase* phases, std::size_t count) {
   return all;
 }
 
+void Executor::reserve_region(std::size_t chunks, std::size_t phases) {
+  region_chunks_.reserve(chunks);
+  phase_end_.reserve(phases);
+  if (arena_ && arena_->claimed_capacity < chunks) {
+    arena_->claimed = std::make_unique<std::atomic<std::uint8_t>[]>(chunks);
+    arena_->claimed_capacity = chunks;
+  }
+}
+
 bool Executor::run_region_serial() {
   bool all = true;
   for (const RegionChunk& c : region_chunks_) {

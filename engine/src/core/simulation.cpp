@@ -141,6 +141,7 @@ void Simulation<T>::current_rotations(const SimBody<T>& body, const Level<T>& L,
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
+  region_sized_ = false;
   write_back_rotations();  // the lists are made again below, from Level::rotation
   // The corner forces of the listed levels, kept by list position: a prepare between two steps in
   // the middle of a level's window (World::add_body, when the tick stays) must keep the slices the
@@ -184,6 +185,7 @@ void Simulation<T>::prepare(double tick_dt) {
       pieces += L.stepped_runs.size() + 1;
       js.gc = gather_context(L);
       js.ic = integrate_context(L, gravity, 0.0);
+      js.obstacles.resize(obstacles.size());  // filled at each window's end (step)
       js.gh.ghosts = L.ghosts.data();
       js.gh.offsets = L.ghost_offsets.data();
       js.gh.source_level = L.ghost_source_level.data();
@@ -251,11 +253,42 @@ void Simulation<T>::prepare(double tick_dt) {
   for (auto& list : tick_segments_) list.reserve(jobs_.size());
   for (auto& list : tick_predicates_) list.reserve(jobs_.size());
   tick_segments_[kPhaseElements].reserve(pieces);
+  tick_segments_[kPhasePack].reserve(node_pieces_.size());  // a pack segment per node piece at most
   tick_predicates_[kPhaseNodes].reserve(node_pieces_.size());
   tick_predicates_[kPhaseIntegrate].reserve(node_pieces_.size());
   // The tools' margin checks read the simulated surface vertices only (LevelContact::simulated).
   for (ToolState<T>& tool : tools)
     for (LevelContact<T>& lc : tool.levels) note_simulated_surface(lc, bodies[std::size_t(lc.body)].levels[std::size_t(lc.level)]);
+}
+
+template <class T>
+void Simulation<T>::size_region(Executor& exec) {
+  region_sized_ = true;
+  const int threads = exec.threads();
+  // The chunks of a segment of at most n items (tick_grain): one per thread at most on several
+  // threads, n / max_grain on one.
+  auto chunks = [&](std::size_t n, std::size_t min_chunk, std::size_t max_grain) -> std::size_t {
+    if (n == 0) return 0;
+    if (threads > 1) return std::min(std::size_t(threads), n);
+    const std::size_t g = tick_grain(n, min_chunk, max_grain, threads);
+    return (n + g - 1) / g;
+  };
+  std::size_t total = 0;
+  for (const LevelJobState<T>& js : job_state_) {
+    const Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
+    total += chunks(L.ghosts.size(), kTickNodeChunk, kNodeGrain);
+    total += chunks(L.receivers.size(), kTickNodeChunk, kNodeGrain);
+    // Its node pieces: packed, gathered (and integrated), integrated again when coupled.
+    for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q)
+      total += 3 * chunks(node_pieces_[q].count, kTickNodeChunk, kNodeGrain);
+    // Its element slices: a listed level's from one list, a level's of ranges cut at its runs.
+    if (!js.stepped.empty()) {
+      total += chunks(js.stepped.size(), kTickTetChunk, kTetGrain);
+    } else {
+      for (const Range& r : L.stepped_runs) total += chunks(r.size(), kTickTetChunk, kTetGrain);
+    }
+  }
+  exec.reserve_region(total, kTickPhases);
 }
 
 template <class T>
@@ -371,6 +404,7 @@ bool run_integrate(const void* ctx, Range r) {
 
 template <class T>
 bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where, std::int64_t step_index) {
+  if (!region_sized_) size_region(exec);
   plan_tick(jobs_, schedule, tick_, due_);
   const std::size_t jobs = jobs_.size();
   auto level_of = [&](std::size_t j) -> Level<T>& {
@@ -468,7 +502,7 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     Level<T>& L = level_of(j);
     LevelJobState<T>& js = job_state_[j];
     js.ic.dt = T(L.window_dt);
-    js.obstacles.resize(obstacles.size());  // allocates on the first tick only
+    js.obstacles.resize(obstacles.size());  // sized by prepare(): no allocation here
     for (std::size_t o = 0; o < obstacles.size(); ++o)
       js.obstacles[o] = half_space_context(L, obstacles[o], bodies[std::size_t(js.body)].origin);
     coupled_due |= L.coupled();
@@ -607,7 +641,11 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
     // and the split back put fine nodes there: a stress scene went from 7 J to 114 J), and the
     // points of the triangles the tool presses but its response cannot push (LevelContact::
     // unresolved) refine whatever refine_near.
-    std::vector<NearShape> near;
+    // (Listed in near_scratch_: kept between decision points, so that one allocates nothing once
+    // the list has had its size; a local vector allocated at every decision point of every
+    // adaptive body, tests/core/test_hot_path_allocations.cpp.)
+    std::vector<NearShape>& near = near_scratch_;
+    near.clear();
     {
       for (const ToolState<T>& tool : tools) {
         bool touches = false;
@@ -734,7 +772,10 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
   // step's own tick, not of this tick h: while the deformation monitor sub-steps, h is a fraction
   // of it, and periods made for h grew with the sub-steps, so every level stepped as long as
   // without them (and beyond its stable step once they relaxed).
-  if (adapted) prepare(period_tick_);
+  if (adapted) {
+    prepare(period_tick_);
+    size_region(exec);
+  }
   return true;
 }
 

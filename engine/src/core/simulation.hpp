@@ -267,6 +267,10 @@ class Simulation {
   // chosen (World: dt / its base sub-steps): when the deformation monitor sub-steps, the ticks
   // shrink and every level's step with them.
   void prepare(double tick_dt);
+  // Sizes exec's region scratch for the largest tick the prepared jobs can make (an upper bound
+  // of the chunks of every pass of every level at once), so that no tick allocates; step() calls
+  // it at its first tick after a prepare (the tick of a change: its own step, which allocates).
+  void size_region(Executor& exec);
   double period_tick() const { return period_tick_; }  // s: the tick the periods were made for
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
@@ -371,6 +375,7 @@ class Simulation {
     if (scratch.size() < n) scratch.resize(n);
   }
   mutable std::vector<double> chunk_max;  // stiffness_ratio: the largest ratio of each chunk of tets
+  std::vector<NearShape> near_scratch_;  // step(): what refines by distance at a decision point (reused)
 
   void relocate_probes(int body);
 
@@ -392,6 +397,7 @@ class Simulation {
 
  private:
   bool packs_stale_ = false;
+  bool region_sized_ = false;  // size_region done since the last prepare
   std::int64_t tick_ = 0;
   std::size_t last_tick_tets_ = 0;
   std::vector<LevelJob> jobs_;

@@ -72,6 +72,10 @@ class Executor {
     std::size_t predicate_count = 0;
   };
   bool run_phases(const Phase* phases, std::size_t count);
+  // Sizes run_phases' scratch for regions of up to `chunks` chunks in `phases` phases, so that
+  // none of them allocates (the caller knows its largest tick: Simulation sizes it after each
+  // prepare, tests/core/test_hot_path_allocations.cpp). Never shrinks.
+  void reserve_region(std::size_t chunks, std::size_t phases);
   // Which regions run on the calling thread alone. From kRegionSerialBelow items (tets + nodes +
   // ghosts ... in all the phases) on, a region runs on every thread; below it, by default, each
   // size of region is timed both ways on this machine and runs the faster way (RegionChooser,
