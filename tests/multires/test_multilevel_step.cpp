@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <vector>
 
 #include "pliant/world.hpp"
 
@@ -578,6 +580,44 @@ TEST(MultilevelStep, NonNestedBarSplitInPartSagsBetweenItsLevels) {
       EXPECT_LT(sag, sag_fine) << levels << " levels, " << sp.what;
     }
   }
+}
+
+}  // namespace
+}  // namespace pliant
+
+namespace pliant {
+namespace {
+
+// The finest level refreshes its ghosts only where something they are made of moved (its sources
+// end their windows, or a change, or a host's write; simulation.cpp, phase A): a host that moves a
+// coarse node between two steps, in the middle of that coarse level's window, must see the finer
+// level's ghosts follow it at the next tick. Each ghost then sits where its sources put it: the
+// weighted sum of their positions (the refresh's own arithmetic, in double, rounded to T).
+TEST(MultilevelStep, GhostsFollowAHostsWriteToTheirSourcesInTheMiddleOfAWindow) {
+  World w(world_def());
+  const BodyId b = w.add_body(split_bar());
+  const int fine = w.level_count(b) - 1;
+  for (int i = 0; i < 9; ++i) w.step();  // ticks 0..8: the coarse windows (4 ticks) are 1 tick into the third
+  Level<double>& F = w.level<double>(b, fine);
+  ASSERT_FALSE(F.ghosts.empty());
+  // Every source of the finest level's ghosts moved by the host, 1 mm along y, between two steps.
+  for (std::size_t g = 0; g < F.ghosts.size(); ++g)
+    for (std::int32_t e = F.ghost_offsets[g]; e < F.ghost_offsets[g + 1]; ++e) {
+      Level<double>& S = w.level<double>(b, F.ghost_source_level[std::size_t(e)]);
+      S.x[1][std::size_t(F.ghost_source_node[std::size_t(e)])] = S.X[1][std::size_t(F.ghost_source_node[std::size_t(e)])] + 1e-3;
+    }
+  // Where the sources put each ghost: its sources do not move before the end of the tick.
+  std::vector<double> expected(F.ghosts.size(), 0.0);
+  for (std::size_t g = 0; g < F.ghosts.size(); ++g)
+    for (std::int32_t e = F.ghost_offsets[g]; e < F.ghost_offsets[g + 1]; ++e)
+      expected[g] += F.ghost_weight[std::size_t(e)] *
+                     w.level<double>(b, F.ghost_source_level[std::size_t(e)]).x[1][std::size_t(F.ghost_source_node[std::size_t(e)])];
+  w.step();  // tick 9: the finest level's window starts, no coarser one does (they start at even ticks)
+  const Level<double>& G = w.level<double>(b, fine);
+  double worst = 0;
+  for (std::size_t g = 0; g < G.ghosts.size(); ++g) worst = std::max(worst, std::abs(G.x[1][std::size_t(G.ghosts[g])] - expected[g]));
+  EXPECT_LT(worst, 1e-15);  // the same sum: 0 measured; stale ghosts would be about 1 mm off
+  std::printf("%zu ghosts, largest distance from where their sources put them: %.3g m\n", G.ghosts.size(), worst);
 }
 
 }  // namespace

@@ -381,8 +381,8 @@ class Simulation {
 
   // The host took a level to write (World::level): the windows open now pack their positions again
   // at their next slice (LevelJobState::window_pack), so that what it wrote between two steps is
-  // read by the slices after them, as without the pack.
-  void levels_given_to_host() { packs_stale_ = true; }
+  // read by the slices after them, as without the pack; and every level refreshes its ghosts (they, or their sources, may have been written).
+  void levels_given_to_host() { packs_stale_ = ghosts_stale_ = true; }
   // The listed levels' rotations (LevelJobState::listed_rotation) copied to Level::rotation, so that
   // a pass reading them by tet reads the current ones. O(listed tets).
   void write_back_rotations();
@@ -398,6 +398,7 @@ class Simulation {
  private:
   bool packs_stale_ = false;
   bool region_sized_ = false;  // size_region done since the last prepare
+  bool ghosts_stale_ = true;   // every level's ghosts refresh at their next window (step(), phase A)
   std::int64_t tick_ = 0;
   std::size_t last_tick_tets_ = 0;
   std::vector<LevelJob> jobs_;
