@@ -138,6 +138,37 @@ void Simulation<T>::current_rotations(const SimBody<T>& body, const Level<T>& L,
     for (std::size_t i = 0; i < js->stepped.size(); ++i) out[k][std::size_t(js->stepped[i])] = js->listed_rotation[k][i];
 }
 
+// A level whose nodes are the sources of the ghosts of a level two or more finer (an adaptive body
+// that refined a coarse region straight to its finest level) takes, through the impulses its
+// receivers get, the stiffness of the fine tets around those ghosts: an interface of (h_c / h_f)^2
+// times as many tets, each h_c / h_f times less stiff, so about h_c / h_f = 2^gap times its own
+// tets' stiffness on such a node, and its frequency 2^(gap / 2) times what its stable step was
+// measured for. Levels one apart (2x the stiffness, 1.41x the frequency) stay within the Courant
+// factor's margin (0.5: a factor 2 in frequency); two apart used it all, and a stress scene
+// (0x236e38a6695cca71, docs/stress.md) grew 1.75x every 3 ms at such an interface. Such a level's
+// period is divided by 2^ceil((gap - 1) / 2) (2 for gaps of 2 and 3), so that its receivers are
+// no closer to their limit than those of adjacent levels; never below the period of a finer level
+// (windows nest).
+template <class T>
+void Simulation<T>::shorten_far_sources(SimBody<T>& body) {
+  const std::size_t n = body.levels.size();
+  for (std::size_t c = 0; c + 2 < n; ++c) {
+    std::size_t gap = 0;
+    for (std::size_t f = n; f-- > c + 2 && gap == 0;)
+      for (const std::int32_t src : body.levels[f].ghost_source_level)
+        if (std::size_t(src) == c) {
+          gap = f - c;
+          break;
+        }
+    if (gap < 2) continue;
+    const int divisor = 1 << (gap / 2);  // 2^ceil((gap - 1) / 2)
+    int finer = 1;
+    for (std::size_t f = c + 1; f < n; ++f) finer = std::max(finer, body.levels[f].period);
+    Level<T>& L = body.levels[c];
+    L.period = std::max(finer, L.period / divisor);
+  }
+}
+
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
@@ -164,9 +195,11 @@ void Simulation<T>::prepare(double tick_dt) {
     SimBody<T>& body = bodies[b];
     job_of_body_.push_back(jobs_.size());
     const bool multilevel = body.levels.size() > 1;
+    for (std::size_t l = 0; l < body.levels.size(); ++l)
+      body.levels[l].period = multilevel ? level_period(body.levels[l].stable_dt, tick_dt) : 1;
+    if (multilevel) shorten_far_sources(body);
     for (std::size_t l = 0; l < body.levels.size(); ++l) {
       Level<T>& L = body.levels[l];
-      L.period = multilevel ? level_period(L.stable_dt, tick_dt) : 1;
       jobs_.push_back({L.period, L.stepped_count});
       LevelJobState<T> js;
       js.body = int(b);

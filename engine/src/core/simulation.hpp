@@ -271,6 +271,9 @@ class Simulation {
   // of the chunks of every pass of every level at once), so that no tick allocates; step() calls
   // it at its first tick after a prepare (the tick of a change: its own step, which allocates).
   void size_region(Executor& exec);
+  // prepare(): the periods of the levels whose nodes source ghosts two or more levels finer (their
+  // receivers are stiffer than their own stable step was measured for), shortened.
+  void shorten_far_sources(SimBody<T>& body);
   double period_tick() const { return period_tick_; }  // s: the tick the periods were made for
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
