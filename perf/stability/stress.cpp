@@ -574,12 +574,33 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
     out.undone = a.undone;
   };
   out.adaptive = sc.adaptive;
-  std::int64_t substeps_taken = 0;  // steps, or sub-steps when sub-stepping
+  std::int64_t substeps_taken = 0;  // steps, or sub-steps when sub-stepping: the fine ticks so far
+  // A level's windows are aligned on multiples of its period: a period may grow only at a tick that
+  // is a multiple of the new one (Simulation::align_periods). Checked after every step of an
+  // adaptive body, whose periods change with its resolution (Simulation::shorten_far_sources).
+  std::vector<int> periods;
+  for (int l = 0; sc.adaptive && l < w.level_count(0); ++l) periods.push_back(w.level_info(0, l).period);
+  std::string misaligned;
   try {
     for (int i = 1; i <= sc.steps && ok; ++i) {
       const double tool_work = sc.tool ? w.tool_reading(ToolId(0)).work_total : 0.0;
+      const std::int64_t ticks_before = substeps_taken;
       substeps_taken += w.substeps();  // the adaptive step may raise them as the body stiffens
       w.step();
+      // The sub-steps this step took (World::step chooses them at its start): the fine ticks.
+      substeps_taken = ticks_before + w.substeps();
+      // A change comes at the end of one of the step's sub-steps: the period may have grown at any
+      // of those ticks, and at least one of them must be a multiple of it.
+      for (std::size_t l = 0; l < periods.size() && misaligned.empty(); ++l) {
+        const int p = w.level_info(0, int(l)).period;
+        bool aligned = p <= periods[l];
+        for (std::int64_t t = ticks_before + 1; t <= substeps_taken && !aligned; ++t) aligned = t % p == 0;
+        if (!aligned)
+          misaligned = fmt::format("level {}'s period grew from {} to {} ticks within ticks {}-{}, none a multiple of it", l,
+                                   periods[l], p, ticks_before + 1, substeps_taken);
+        periods[l] = p;
+      }
+      if (!misaligned.empty()) ok = false;
       mon.after_step(w);
       // A kinematic tool drives the body: its work over the step and its sub-steps
       // (ToolReading::work_total), as the driven nodes' by its magnitude.
@@ -605,7 +626,10 @@ StressScene run_stress_scene(std::uint64_t scene_seed, std::int64_t index, const
   out.hash = w.state_hash();
   out.energy_peak = mon.peak_ratio();
   adapt_stats();
-  if (!mass_ok) {
+  if (!misaligned.empty()) {
+    out.status = "misaligned";
+    out.message = misaligned;
+  } else if (!mass_ok) {
     out.status = "mass";
     out.message = fmt::format("mass not conserved: relative error {:.3g} after {} splits and {} merges (tolerance {:g})",
                               out.mass_error, out.splits, out.merges, mass_tolerance);

@@ -489,6 +489,18 @@ TEST(Stress, AFinestLevelFedByTheCoarsestStaysBounded) {
   }
 }
 
+TEST(Stress, APeriodGrowsOnlyWhereItsWindowsStart) {
+  // Scenes 70 and 204 of `pliant stress --seed 38`: a change ended the coarsest level's feeding the
+  // finest level directly at a tick of 2 mod 4, and its period went back from 2 to 4 there, so its
+  // first window began halfway (half its staggered slices skipped, their forces left from the
+  // window before). The runner now checks at every step that a period grows only at a multiple
+  // of itself (status "misaligned"), and Simulation::align_periods keeps it so.
+  for (const StressScene& s : run_named_scenes({{0x888d78f1c1f3c5f3ull, "adaptive nested box 0.144x0.035x0.040"},
+                                                {0x7cf1ac656ae879b7ull, "adaptive nested box 0.278x0.049x0.070"}},
+                                               true, true))
+    EXPECT_GT(s.merges, 0);
+}
+
 TEST(Stress, CapsuleToolScenesPass) {
   // The first six adaptive scenes (seeds 1, 2, 3, ...) whose tool is a capsule (StressOptions::
   // capsules, on with tools: half the tools, 1-3 radii long, leaning 0-80 degrees, pressing with

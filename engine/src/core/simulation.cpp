@@ -169,6 +169,25 @@ void Simulation<T>::shorten_far_sources(SimBody<T>& body) {
   }
 }
 
+// A level's windows are aligned on multiples of its period (plan_tick: tick % period), so a
+// period may only grow at a tick that is a multiple of the new one: a level whose period grew from
+// 2 to 4 at a tick of 2 mod 4 (a change while it fed a level two finer ended that, at a decision
+// point aligned on its period of 2; `pliant stress` met it 5 times in 30 s) began a window halfway,
+// stepped only the second half of its staggered slices in it (the first half's corner forces left
+// from the window before) and gave its prescribed nodes the offset over a window it had not
+// stepped. It now grows to the longest period, at most the one wanted, whose windows start here
+// (a later change at an aligned tick gives it the rest); shorter periods are always aligned (a
+// change comes where every window ends); and no level's period ends up below a finer level's.
+template <class T>
+void Simulation<T>::align_periods(SimBody<T>& body, const std::vector<int>& before) {
+  const std::size_t n = body.levels.size();
+  for (std::size_t l = 0; l < n; ++l) {
+    int& p = body.levels[l].period;
+    while (p > before[l] && p > 1 && tick_ % p != 0) p /= 2;
+  }
+  for (std::size_t l = n - 1; l-- > 0;) body.levels[l].period = std::max(body.levels[l].period, body.levels[l + 1].period);
+}
+
 template <class T>
 void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
@@ -195,9 +214,15 @@ void Simulation<T>::prepare(double tick_dt) {
     SimBody<T>& body = bodies[b];
     job_of_body_.push_back(jobs_.size());
     const bool multilevel = body.levels.size() > 1;
-    for (std::size_t l = 0; l < body.levels.size(); ++l)
+    std::vector<int> before(body.levels.size());
+    for (std::size_t l = 0; l < body.levels.size(); ++l) {
+      before[l] = body.levels[l].period;
       body.levels[l].period = multilevel ? level_period(body.levels[l].stable_dt, tick_dt) : 1;
-    if (multilevel) shorten_far_sources(body);
+    }
+    if (multilevel) {
+      shorten_far_sources(body);
+      align_periods(body, before);
+    }
     for (std::size_t l = 0; l < body.levels.size(); ++l) {
       Level<T>& L = body.levels[l];
       jobs_.push_back({L.period, L.stepped_count});

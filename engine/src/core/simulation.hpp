@@ -274,6 +274,9 @@ class Simulation {
   // prepare(): the periods of the levels whose nodes source ghosts two or more levels finer (their
   // receivers are stiffer than their own stable step was measured for), shortened.
   void shorten_far_sources(SimBody<T>& body);
+  // prepare(): a period that grew kept to one whose windows start at this tick (before: the periods
+  // before the prepare), and none below a finer level's.
+  void align_periods(SimBody<T>& body, const std::vector<int>& before);
   double period_tick() const { return period_tick_; }  // s: the tick the periods were made for
 
   // One fine tick of size h (s) from time t for every body and level: ghost refresh (levels whose
