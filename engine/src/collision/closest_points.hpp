@@ -114,6 +114,8 @@ inline SegmentTriangle closest_point_triangle(const P3& p, const P3& a, const P3
     const P3 d2 = sub(v, u), r = sub(p, u);
     const double len2 = dot(d2, d2);
     const double t = len2 <= 1e-300 ? 0.0 : std::clamp(dot(d2, r) / len2, 0.0, 1.0);
+    // x as the general path forms its segment point p + (q - p) s at s = 0: p itself when finite,
+    // NaN when p has an infinity, as there.
     const P3 x = add(p, mul(sub(p, p), 0.0)), y = add(u, mul(d2, t));
     const double dist2 = norm2(sub(x, y));
     if (dist2 < best.distance2) {
