@@ -49,10 +49,10 @@ void forces(const ElementContext<T>& c, Range r, detail::Damping d) {
 template <class T>
 bool packed_corners_pay() {
   // perf/layout_ab packed, docs/performance.md "Data layout": AVX2 (AMD EPYC Zen 3) float
-  // 0.75-0.85x the time, double 0.87-0.94x; AVX-512 (Xeon) float 0.87-0.96x, double 1.07-1.16x
-  // (measured before gather_xyz lost its copy through the stack: to measure again there). SSE
-  // builds keep the gathers.
-  return simd::kNativeBytes == 32 || (std::is_same_v<T, float> && simd::kNativeBytes == 64);
+  // 0.75-0.85x the time, double 0.87-0.94x. AVX-512 (Xeon, 2026-11-29) float 1.06-1.27x, double
+  // 0.93-1.07x: its gathers are cheaper than the transpose's shuffles there (the header says why).
+  // SSE builds keep the gathers.
+  return simd::kNativeBytes == 32;
 }
 
 template <class T>

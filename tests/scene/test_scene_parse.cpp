@@ -161,6 +161,7 @@ TEST(SceneParse, DefaultsWhenKeysAbsent) {
   EXPECT_EQ(s.world.gravity, d.world.gravity);
   EXPECT_EQ(s.world.precision, Precision::float64);
   EXPECT_EQ(s.world.threads, 0);
+  EXPECT_EQ(s.world.packed_corners, PackedCorners::automatic);
   EXPECT_FALSE(s.world.time_step.dt.has_value());
   EXPECT_EQ(s.world.time_step.courant, 0.5);
   EXPECT_FALSE(s.world.time_step.substep);
@@ -181,6 +182,17 @@ TEST(SceneParse, DefaultsWhenKeysAbsent) {
   EXPECT_TRUE(s.probes.empty());
   EXPECT_EQ(s.output.vtu_every, 0);
   EXPECT_EQ(s.output.probe_every, 0);
+}
+
+TEST(SceneParse, PackedCornersAutoOnOrOff) {
+  auto packed = [](const char* v) {
+    return parse_scene(std::string(R"({"packed_corners": )") + v + R"(, "bodies": [{"mesh": {"box": {}}}]})", "p.json", "")
+        .world.packed_corners;
+  };
+  EXPECT_EQ(packed(R"("auto")"), PackedCorners::automatic);
+  EXPECT_EQ(packed(R"("on")"), PackedCorners::on);
+  EXPECT_EQ(packed(R"("off")"), PackedCorners::off);
+  EXPECT_THROW(packed("true"), InputError);
 }
 
 TEST(SceneParse, DtAutoOrNumber) {
@@ -252,6 +264,7 @@ const Violation kViolations[] = {
     {"tets_per_cell 7", BODY(R"({"mesh": {"box": {"tets_per_cell": 7}}})"), "bodies[0].mesh.box.tets_per_cell"},
     {"unknown model", BOX_BODY(R"(, "model": "neohookean")"), "bodies[0].model"},
     {"unknown precision", R"({"precision": "half", "bodies": [{"mesh": {"box": {}}}]})", "precision"},
+    {"unknown packed_corners", R"({"packed_corners": "sometimes", "bodies": [{"mesh": {"box": {}}}]})", "packed_corners"},
     {"probe unknown body",
      R"({"bodies": [{"name": "beam", "mesh": {"box": {}}}], "probes": [{"body": "bem", "point": [0,0,0]}]})",
      "probes[0].body"},

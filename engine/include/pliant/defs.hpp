@@ -203,6 +203,14 @@ struct TimeStepDef {
 // on the last tick of the window (every coarse level on the same tick). Both give the same bits.
 enum class Schedule { staggered, naive };
 const char* to_string(Schedule s);  // "staggered" | "naive"
+// Whether the element passes read a tet's corners from a copy of the positions (and, where the
+// pass is damped, velocities) interleaved per node, written right before them, instead of
+// gathering x[3][n] (Level::x_packed). The same values either way, so the same bits: only speed
+// differs. automatic: the kernels' measured choice for this ISA and precision (packed with AVX2;
+// gathered with AVX-512 and SSE; docs/performance.md); on / off: always / never, for a host whose
+// machine measures otherwise, and for tests.
+enum class PackedCorners { automatic, on, off };
+const char* to_string(PackedCorners p);  // "auto" | "on" | "off"
 // A static obstacle: the solid half-space below a plane, which free nodes of every body may not
 // enter (a floor, a table, a wall). After each (sub-)step a node found inside is put back onto
 // the plane and loses its velocity into it (inelastic), and with friction some of its sliding
@@ -220,6 +228,7 @@ struct WorldDef {
                                 //   (World::threads() reports the number used)
   TimeStepDef time_step;
   Schedule schedule = Schedule::staggered;
+  PackedCorners packed_corners = PackedCorners::automatic;
   std::vector<ObstacleDef> obstacles;  // static half-spaces (none by default)
 };
 

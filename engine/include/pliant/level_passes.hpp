@@ -69,19 +69,23 @@ ElementContext<T> element_context(const Level<T>& L) {
 
 // The pack of L's positions into L.x_packed (ElementContext::xp), which the step runs right
 // before the element passes of a level where packed_corners_pay<T>() (the kernels' ISA and
-// precision; measured in docs/performance.md) and the pass is large enough for the pack to pay:
+// precision; measured in docs/performance.md; WorldDef::packed_corners may override it) and the
+// pass is large enough for the pack to pay:
 // the pack costs about 1 ns per node, the packed corners save 0.8-2.3 ns per tet (float, 10k-100k
 // tets), so it takes at least 2 tets per node of the level (a whole mesh has 4.5-6; a
 // multiresolution level stepping a small region of its mesh may have far fewer). Results are the
 // same bits either way.
 // The velocities are packed too where that pays (packed_velocities_pay<T>()) and the level's
-// passes read them (it is damped: the kernels' has_viscosity).
+// passes read them (it is damped: the kernels' has_viscosity). WorldDef::packed_corners may
+// override the kernels' choice: on packs positions and (damped) velocities, off neither.
 template <class T>
-void size_packed(Level<T>& L) {
-  const std::size_t n = packed_corners_pay<T>() ? 4 * L.node_count : 0;
+void size_packed(Level<T>& L, PackedCorners mode = PackedCorners::automatic) {
+  const bool positions = mode == PackedCorners::on || (mode == PackedCorners::automatic && packed_corners_pay<T>());
+  const bool velocities = mode == PackedCorners::on || (mode == PackedCorners::automatic && packed_velocities_pay<T>());
+  const std::size_t n = positions ? 4 * L.node_count : 0;
   if (L.x_packed.size() != n) L.x_packed.assign(n, T(0));
   const bool damped = L.bulk_viscosity != T(0) || L.shear_viscosity != T(0);
-  const std::size_t nv = n > 0 && damped && packed_velocities_pay<T>() ? n : 0;
+  const std::size_t nv = n > 0 && damped && velocities ? n : 0;
   if (L.v_packed.size() != nv) L.v_packed.assign(nv, T(0));
 }
 template <class T>
@@ -99,7 +103,7 @@ PackContext<T> pack_context(Level<T>& L) {
 // node pieces, the corners of its stepped tets: Simulation::step).
 template <class T>
 bool pack_pays(const Level<T>& L, std::size_t tets, std::size_t nodes) {
-  return packed_corners_pay<T>() && L.node_count > 0 && L.x_packed.size() == 4 * L.node_count && nodes > 0 &&
+  return L.node_count > 0 && L.x_packed.size() == 4 * L.node_count && nodes > 0 &&
          tets >= 2 * nodes;
 }
 template <class T>

@@ -229,7 +229,7 @@ void Simulation<T>::prepare(double tick_dt) {
       LevelJobState<T> js;
       js.body = int(b);
       js.level = int(l);
-      size_packed(L);
+      size_packed(L, packed_corners);
       js.pack = pack_context(L);
       js.ec = element_context(L);
       js.pass = force_kernel<T>(L.model);

@@ -257,6 +257,7 @@ class Simulation {
   std::vector<ProbeState> probes;
   T gravity[3] = {0, 0, 0};
   ScheduleKind schedule = ScheduleKind::staggered;
+  PackedCorners packed_corners = PackedCorners::automatic;  // WorldDef::packed_corners
   std::vector<ObstacleDef> obstacles;  // static half-spaces, unit normals (World checks them)
   std::unique_ptr<EmbreeDevice> embree;  // made with the first tool; before `tools`: outlives their BVHs
   std::vector<ToolState<T>> tools;

@@ -152,6 +152,7 @@ struct World::Impl {
   void prepare() {
     visit([&](auto& s) {
       s.schedule = def.schedule == Schedule::naive ? ScheduleKind::naive : ScheduleKind::staggered;
+      s.packed_corners = def.packed_corners;
       s.prepare(dt / base_substeps);  // the step's own tick: sub-steps shrink every level's step (Simulation::prepare)
       // The monitors' per-tet scratch at its largest now, not at the first step (a real-time run's
       // first frame paid its page faults: 0.4 MB on the 50k-tet organ).

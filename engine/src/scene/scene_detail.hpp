@@ -16,7 +16,8 @@ using KeyList = std::span<const std::string_view>;
 
 inline constexpr std::string_view kSceneKeys[] = {"duration", "gravity",  "precision", "threads",
                                                   "time_step", "bodies", "probes",    "output",
-                                                  "camera",    "schedule",  "obstacles", "tools", "realtime", "realtime_frame"};
+                                                  "camera",    "schedule",  "obstacles", "tools", "realtime", "realtime_frame",
+                                                  "packed_corners"};
 inline constexpr std::string_view kTimeStepKeys[] = {"dt", "courant", "substep", "adapt"};
 inline constexpr std::string_view kBodyKeys[] = {"name",  "mesh",       "material", "model",
                                                  "fixed", "prescribed", "loads",    "multiresolution", "skin"};

@@ -241,6 +241,10 @@ SceneDef Reader::scene(const Json& doc) const {
   optional(doc, "", "schedule", [&](const auto& v, const auto& p) {
     s.world.schedule = choice(v, p, "schedule", {"staggered", "naive"}) == 0 ? Schedule::staggered : Schedule::naive;
   });
+  optional(doc, "", "packed_corners", [&](const auto& v, const auto& p) {
+    const PackedCorners modes[] = {PackedCorners::automatic, PackedCorners::on, PackedCorners::off};
+    s.world.packed_corners = modes[choice(v, p, "packed_corners", {"auto", "on", "off"})];
+  });
 
   const Json& bodies = array(required(doc, "", "bodies"), "bodies");
   if (bodies.empty()) fail("bodies", "must list at least one body");

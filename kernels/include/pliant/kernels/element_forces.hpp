@@ -20,9 +20,10 @@ namespace pliant {
 // Whether the force passes are faster reading corners from packed positions (ElementContext::xp)
 // than gathering them, with the pack counted: true with AVX2 (8 float or 4 double loads and a
 // transpose per corner: 0.75-0.85x the time in float, 0.87-0.94x in double on an AMD EPYC Zen 3,
-// whose gathers are slow) and for float with AVX-512 (0.87-0.96x on a Xeon); false for double
-// with AVX-512 (1.07-1.16x there, measured before gather_xyz stopped copying its result through
-// the stack) and for SSE builds (not measured). docs/performance.md.
+// whose gathers are slow); false with AVX-512 (float 1.06-1.27x on a Xeon, 2026-11-29, probably
+// because the transpose's 19 inserts and unpacks per corner need the same two 512-bit ports as the
+// arithmetic, while gathers mostly wait on loads; double 0.93-1.07x, no gain for the pack's time
+// and memory) and for SSE builds (not measured). docs/performance.md.
 template <class T> bool packed_corners_pay();
 // Whether the damped passes are faster reading corner velocities from a packed copy
 // (ElementContext::vp) too, its pack counted: true with AVX2 (0.85-0.94x the damped pass with
