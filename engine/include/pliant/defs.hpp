@@ -209,8 +209,7 @@ const char* to_string(Schedule s);  // "staggered" | "naive"
 // differs. automatic: the kernels' measured choice for this ISA and precision (packed with AVX2;
 // gathered with AVX-512 and SSE; docs/performance.md); on / off: always / never, for a host whose
 // machine measures otherwise, and for tests.
-enum class PackedCorners { automatic, on, off };
-const char* to_string(PackedCorners p);  // "auto" | "on" | "off"
+enum class PackedCorners { automatic, on, off };  // scene key packed_corners: "auto" | "on" | "off"
 // A static obstacle: the solid half-space below a plane, which free nodes of every body may not
 // enter (a floor, a table, a wall). After each (sub-)step a node found inside is put back onto
 // the plane and loses its velocity into it (inelastic), and with friction some of its sliding

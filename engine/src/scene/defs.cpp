@@ -16,8 +16,5 @@ const char* to_string(ForceModel m) {
 }
 
 const char* to_string(Schedule s) { return s == Schedule::naive ? "naive" : "staggered"; }
-const char* to_string(PackedCorners p) {
-  return p == PackedCorners::on ? "on" : p == PackedCorners::off ? "off" : "auto";
-}
 
 }  // namespace pliant
