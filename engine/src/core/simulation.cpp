@@ -14,6 +14,7 @@
 
 #include "pliant/kernels/element_stiffness.hpp"
 #include "pliant/level_passes.hpp"
+#include "probe_placement.hpp"
 
 namespace pliant::detail {
 namespace {
@@ -883,45 +884,16 @@ void Simulation<T>::place_ghosts(SimBody<T>& body) {
 }
 
 // A probe reads the finest level that steps a tet around its material point (World::add_probe's
-// rule), again after the activation changed.
+// rule), again after the activation changed: from its candidates (probe_placement.hpp), or where
+// no stepped candidate contains the point, by reading every stepped tet.
 template <class T>
 void Simulation<T>::relocate_probes(int body) {
   const SimBody<T>& B = bodies[std::size_t(body)];
   for (ProbeState& p : probes) {
     if (p.body != body) continue;
-    const Level<T>& L0 = B.levels[std::size_t(p.level)];
-    double X[3] = {0, 0, 0};
-    for (int a = 0; a < 4; ++a)
-      for (int k = 0; k < 3; ++k) X[k] += p.weights[std::size_t(a)] * double(L0.X[k][std::size_t(L0.tet[a][std::size_t(p.tet)])]);
-    double best = -1e300;
-    for (int l = int(B.levels.size()) - 1; l >= 0 && best < -1e-6; --l) {
-      const Level<T>& L = B.levels[std::size_t(l)];
-      for (const Range& run : L.stepped_runs)
-        for (std::size_t e = run.begin; e < run.end; ++e) {
-          // Barycentric weights of X in tet e (rest), by the rest gradients: w_c = g_c . (X - X_0).
-          double w[4], d[3];
-          const auto n0 = std::size_t(L.tet[0][e]);
-          for (int k = 0; k < 3; ++k) d[k] = X[k] - double(L.X[k][n0]);
-          w[0] = 1;
-          for (int c = 0; c < 3; ++c) {
-            w[c + 1] = 0;
-            for (int k = 0; k < 3; ++k) w[c + 1] += double(L.grad[3 * c + k][e]) * d[k];
-            w[0] -= w[c + 1];
-          }
-          const double m = std::min({w[0], w[1], w[2], w[3]});
-          if (m > best) {
-            best = m;
-            p.level = l;
-            p.tet = std::int32_t(e);
-            for (int a = 0; a < 4; ++a) p.weights[std::size_t(a)] = w[a];
-          }
-        }
-    }
-    if (best < -1e-6) {
-      double sum = 0;
-      for (double& x : p.weights) sum += (x = std::max(x, 0.0));
-      for (double& x : p.weights) x /= sum;
-    }
+    double X[3];
+    probe_rest_point(B, p, X);
+    if (!place_probe_from_candidates(B, X, p)) place_probe_by_scan(B, X, p);
   }
 }
 

@@ -60,12 +60,21 @@ struct ToolState {
   ToolPose pose_at(double t) const { return host_driven ? host_pose : tool_pose_at(def.keyframes, t); }
 };
 
+// The tets of every level around a probe's material point, which relocating the probe after a
+// change of resolution reads instead of every stepped tet of the body (probe_placement.hpp).
+struct ProbeCandidates {
+  std::array<double, 3> X{};  // m, body frame at rest: the point the lists were made for
+  double reach = -1;          // m: they hold for points within this of X (< 0: not made)
+  std::vector<std::vector<std::int32_t>> tets;  // per level, ascending
+};
+
 struct ProbeState {
   std::string name;
   int body = 0, level = 0;
   std::int32_t tet = 0;
   std::array<double, 4> weights{};  // barycentric weights of the tet's corners
   bool refine = false;              // ProbeDef::refine: an adaptive body stays fine around it
+  ProbeCandidates candidates;       // made for probes of adaptive bodies (World::add_probe)
 };
 
 // The origin of a body frame for a mesh (world frame, m): the centre of its rest bounding box.

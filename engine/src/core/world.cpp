@@ -18,6 +18,7 @@
 #include "level_arrays.hpp"
 #include "../multires/adapt_arrays.hpp"
 #include "simulation.hpp"
+#include "probe_placement.hpp"
 
 namespace pliant {
 
@@ -792,6 +793,13 @@ int World::add_probe(const ProbeDef& def) {
       double sum = 0;
       for (double& x : p.weights) sum += (x = std::max(x, 0.0));
       for (double& x : p.weights) x /= sum;
+    }
+    // A probe of an adaptive body is placed again at every change of resolution: its candidates
+    // now, so that no change reads the whole body for it (probe_placement.hpp).
+    if (body.adapt) {
+      double X[3];
+      detail::probe_rest_point(body, p, X);
+      detail::make_probe_candidates(body, X, p.candidates);
     }
     s.probes.push_back(p);
     return int(s.probes.size()) - 1;
