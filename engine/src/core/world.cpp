@@ -473,23 +473,6 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
 
 namespace {
 
-// Barycentric weights of point p in tet t of level L (sum 1), and their smallest.
-template <class T>
-double tet_weights(const Level<T>& L, std::size_t t, const Vec3d& p, double w[4]) {
-  const std::int32_t a0 = L.tet[0][t];
-  const double d[3] = {p[0] - double(L.X[0][a0]), p[1] - double(L.X[1][a0]), p[2] - double(L.X[2][a0])};
-  w[0] = 1;
-  for (int a = 0; a < 3; ++a) {
-    w[a + 1] = double(L.grad[3 * a][t]) * d[0] + double(L.grad[3 * a + 1][t]) * d[1] + double(L.grad[3 * a + 2][t]) * d[2];
-    w[0] -= w[a + 1];
-  }
-  return std::min(std::min(w[0], w[1]), std::min(w[2], w[3]));
-}
-
-}  // namespace
-
-namespace {
-
 bool finite3(const Vec3d& v) { return std::isfinite(v[0]) && std::isfinite(v[1]) && std::isfinite(v[2]); }
 
 // Checks a pose (finite position, finite non-zero quaternion) and returns it with a unit quaternion.
@@ -731,12 +714,13 @@ int World::add_probe(const ProbeDef& def) {
     const auto& body = s.bodies[std::size_t(b)];
     // The point in the body frame.
     const Vec3d point{def.point[0] - body.origin[0], def.point[1] - body.origin[1], def.point[2] - body.origin[2]};
-    constexpr double kInside = -1e-6;  // barycentric: a point on a face counts as inside
+    const double X[3] = {point[0], point[1], point[2]};
+    constexpr double kInside = detail::kProbeInside;
     // The point must lie in the body's mesh as given (the finest level, all of it).
     const auto& fine = body.levels.back();
     double inside = -1e300;
     double w[4];
-    for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, tet_weights(fine, t, point, w));
+    for (std::size_t t = 0; t < fine.tet_count && inside < kInside; ++t) inside = std::max(inside, detail::probe_weights(fine, t, X, w));
     if (inside < kInside) {
       // Say where the body is: its nearest node (and that node's number in the file) and extent,
       // in the world frame.
@@ -775,25 +759,7 @@ int World::add_probe(const ProbeDef& def) {
     p.name = def.name;
     p.body = b;
     p.refine = def.refine;
-    double best = -1e300;
-    for (int l = int(body.levels.size()) - 1; l >= 0 && best < kInside; --l) {
-      const auto& L = body.levels[std::size_t(l)];
-      for (const Range& run : L.stepped_runs)
-        for (std::size_t t = run.begin; t < run.end; ++t) {
-          const double m = tet_weights(L, t, point, w);
-          if (m > best) {
-            best = m;
-            p.level = l;
-            p.tet = std::int32_t(t);
-            for (int a = 0; a < 4; ++a) p.weights[a] = w[a];
-          }
-        }
-    }
-    if (best < kInside) {
-      double sum = 0;
-      for (double& x : p.weights) sum += (x = std::max(x, 0.0));
-      for (double& x : p.weights) x /= sum;
-    }
+    detail::place_probe_by_scan(body, X, p);
     // A probe of an adaptive body is placed again at every change of resolution: its candidates
     // now, so that no change reads the whole body for it (probe_placement.hpp).
     if (body.adapt) {
