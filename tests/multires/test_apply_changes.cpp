@@ -25,6 +25,7 @@
 #include "pliant/hierarchy.hpp"
 #include "pliant/scheduler/executor.hpp"
 #include "pliant/world.hpp"
+#include "../support/adaptive_body.hpp"
 
 namespace pliant::detail {
 namespace {
@@ -60,26 +61,7 @@ BodyDef bar(std::array<int, 3> cells, int levels, double ratio) {
   return b;
 }
 
-struct Adaptive {
-  Hierarchy h;
-  Executor exec{1};
-  SimBody<double> body;
-  std::unique_ptr<ActivationState> as;
-  PatchState ps;
-  explicit Adaptive(const BodyDef& def) : h(link_levels(build_level_meshes(def, build_mesh(def.mesh)))) {
-    body = build_multilevel_body<double>(h, def, 0.5, exec);
-    as = std::make_unique<ActivationState>(h, node_targets(h, def.multiresolution.active));
-    ps = make_patch_state(body, h, *as);
-  }
-  // The body as the full apply makes it from the activation's snapshot now.
-  SimBody<double> full(double t) const {
-    SimBody<double> f = body;
-    std::vector<const TetMesh*> meshes;
-    for (const TetMesh& m : h.meshes) meshes.push_back(&m);
-    apply_activation(f, as->snapshot(), h, meshes, t);
-    return f;
-  }
-};
+using Adaptive = AdaptiveBody<double>;
 
 template <class A, class B>
 bool same(const A& a, const B& b) {

@@ -6,18 +6,13 @@
 
 #include <array>
 #include <cstring>
-#include <memory>
 #include <random>
 #include <vector>
 
 #include "../../engine/src/core/probe_placement.hpp"
-#include "../../engine/src/core/simulation.hpp"
-#include "../../engine/src/multires/activation.hpp"
-#include "../../engine/src/multires/adaptivity.hpp"
 #include "../../engine/src/multires/apply_changes.hpp"
-#include "pliant/hierarchy.hpp"
-#include "pliant/scheduler/executor.hpp"
 #include "pliant/world.hpp"
+#include "../support/adaptive_body.hpp"
 
 namespace pliant::detail {
 namespace {
@@ -43,18 +38,7 @@ BodyDef bar() {
 }
 
 template <class T>
-struct Adaptive {
-  Hierarchy h;
-  Executor exec{1};
-  SimBody<T> body;
-  std::unique_ptr<ActivationState> as;
-  PatchState ps;
-  explicit Adaptive(const BodyDef& def) : h(link_levels(build_level_meshes(def, build_mesh(def.mesh)))) {
-    body = build_multilevel_body<T>(h, def, 0.5, exec);
-    as = std::make_unique<ActivationState>(h, node_targets(h, def.multiresolution.active));
-    ps = make_patch_state(body, h, *as);
-  }
-};
+using Adaptive = AdaptiveBody<T>;
 
 // Points (body frame) of every kind: tet centroids, face and edge midpoints and nodes of the
 // finest and coarsest meshes (each on several tets: ties the first of equals must break), and two
