@@ -4,7 +4,11 @@
 // shared by several tets, and outside the body (where the candidates leave the choice to the scan).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
+#include <cstdio>
+#include <string>
 #include <cstring>
 #include <random>
 #include <vector>
@@ -158,28 +162,58 @@ TEST(ProbePlacement, CandidatesAreMadeAgainBeyondTheirReach) {
   EXPECT_EQ(p.level, scan.level);
 }
 
-// Through World (whose add_probe makes the candidates): after a change to the finest level and one
-// back to the coarsest, the probe still reads its material point (the body at rest).
-TEST(ProbePlacement, ProbesReadTheirPointAfterChangesOfResolution) {
+// Where the body is now at its material point `point` (world frame), from level l: the positions of
+// a stepped tet of that level containing the point, weighted by its rest barycentric weights (any
+// such tet: the field is continuous across their faces). False if no stepped tet contains it.
+bool deformed_point(const World& w, int l, const Vec3d& point, Vec3d& out) {
+  const Level<double>& L = w.level<double>(0, l);
+  const Vec3d o = w.body_origin(0);
+  const double X[3] = {point[0] - o[0], point[1] - o[1], point[2] - o[2]};
+  for (const Range& run : L.stepped_runs)
+    for (std::size_t e = run.begin; e < run.end; ++e) {
+      double wgt[4];
+      if (probe_weights(L, e, X, wgt) < -1e-9) continue;
+      for (int k = 0; k < 3; ++k) {
+        out[std::size_t(k)] = o[std::size_t(k)];
+        for (int a = 0; a < 4; ++a) out[std::size_t(k)] += wgt[a] * L.x[k][std::size_t(L.tet[a][e])];
+      }
+      return true;
+    }
+  return false;
+}
+
+// Through World (whose add_probe makes the candidates): the clamped bar bends under gravity on its
+// finest level, then on its coarsest, and after each change the probe reads where its point is in
+// the finest level stepped there (a probe left on a level no longer stepped, or on a tet that does
+// not contain its point, would read somewhere else: the point has moved by millimetres).
+TEST(ProbePlacement, ProbesReadTheirPointOnTheFinestSteppedLevel) {
   WorldDef wd;
-  wd.gravity = {0, 0, 0};
+  wd.precision = Precision::float64;
   World w(wd);
-  w.add_body(bar());
+  BodyDef b = bar();
+  b.multiresolution.active.adapt.refine_above = 1e9;  // only force_level changes the levels
+  b.multiresolution.active.adapt.coarsen_below = 0;   // and nothing merges on its own
+  w.add_body(b);
   ProbeDef pd;
   pd.name = "middle";
   pd.body = "bar";
-  pd.point = {0.15, 0.05, 0.05};
+  pd.point = {0.2, 0.04, 0.06};
   w.add_probe(pd);
-  // Through the public API: forcing the finest level and back moves the probe between levels.
-  w.force_level(0, 2);
-  w.step();
-  const Vec3d fine = w.probe_position(0);
-  w.force_level(0, 0);
-  w.step();
-  const Vec3d coarse = w.probe_position(0);
-  for (int k = 0; k < 3; ++k) {
-    EXPECT_NEAR(fine[std::size_t(k)], pd.point[std::size_t(k)], 1e-6);
-    EXPECT_NEAR(coarse[std::size_t(k)], pd.point[std::size_t(k)], 1e-6);
+  for (const int level : {2, 0, 1}) {
+    SCOPED_TRACE("level " + std::to_string(level));
+    w.force_level(0, level);
+    for (int i = 0; i < 400; ++i) w.step();
+    Vec3d want{};
+    ASSERT_TRUE(deformed_point(w, level, pd.point, want));
+    for (int finer = level + 1; finer < 3; ++finer) EXPECT_EQ(w.level_info(0, finer).stepped_tets, 0u);
+    const Vec3d got = w.probe_position(0);
+    double moved = 0;
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_NEAR(got[std::size_t(k)], want[std::size_t(k)], 1e-12);
+      moved = std::max(moved, std::abs(want[std::size_t(k)] - pd.point[std::size_t(k)]));
+    }
+    std::printf("level %d: the point moved %.3g mm\n", level, 1e3 * moved);
+    EXPECT_GT(moved, 1e-4);
   }
 }
 
