@@ -209,7 +209,8 @@ TEST(ProbePlacement, ProbesReadTheirPointOnTheFinestSteppedLevel) {
     const Vec3d got = w.probe_position(0);
     double moved = 0;
     for (int k = 0; k < 3; ++k) {
-      EXPECT_NEAR(got[std::size_t(k)], want[std::size_t(k)], 1e-12);
+      // The same tet or one beside it (the field is continuous): rounding, 2e-17 m measured.
+      EXPECT_NEAR(got[std::size_t(k)], want[std::size_t(k)], 1e-15);
       moved = std::max(moved, std::abs(want[std::size_t(k)] - pd.point[std::size_t(k)]));
     }
     std::printf("level %d: the point moved %.3g mm\n", level, 1e3 * moved);
