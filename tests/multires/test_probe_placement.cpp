@@ -146,10 +146,9 @@ TEST(ProbePlacement, CandidatesAreMadeAgainBeyondTheirReach) {
   make_probe_candidates(a.body, x, p.candidates);
   const double reach = p.candidates.reach;
   ASSERT_GT(reach, 0);
-  // The fine cells are 2.5 cm: the weights' gradients are about 1 / 2.5 cm, so the reach is
-  // about (1e-3 - 1e-6) / 2 x 2.5 cm / a few.
-  EXPECT_LT(reach, 1e-4);
-  EXPECT_GT(reach, 1e-6);
+  // Half the margin between the two thresholds over the largest weight gradient of the body: in
+  // the fine level's Kuhn cells of 2.5 cm, sqrt(2) / 2.5 cm (a corner whose gradient is (1, -1, 0) / h).
+  EXPECT_NEAR(reach, 0.5 * (kProbeInside - kProbeCandidate) * 0.025 / std::sqrt(2.0), 1e-12);
   const double near[3] = {x[0] + 0.5 * reach, x[1], x[2]};
   ASSERT_TRUE(place_probe_from_candidates(a.body, near, p));
   EXPECT_EQ(p.candidates.X[0], x[0]);  // kept
