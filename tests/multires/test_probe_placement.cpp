@@ -148,7 +148,8 @@ TEST(ProbePlacement, CandidatesAreMadeAgainBeyondTheirReach) {
   ASSERT_GT(reach, 0);
   // Half the margin between the two thresholds over the largest weight gradient of the body: in
   // the fine level's Kuhn cells of 2.5 cm, sqrt(2) / 2.5 cm (a corner whose gradient is (1, -1, 0) / h).
-  EXPECT_NEAR(reach, 0.5 * (kProbeInside - kProbeCandidate) * 0.025 / std::sqrt(2.0), 1e-12);
+  const double expected = 0.5 * (kProbeInside - kProbeCandidate) * 0.025 / std::sqrt(2.0);
+  EXPECT_NEAR(reach, expected, 1e-14 * expected);  // the rest gradients rounded (8e-16 relative measured)
   const double near[3] = {x[0] + 0.5 * reach, x[1], x[2]};
   ASSERT_TRUE(place_probe_from_candidates(a.body, near, p));
   EXPECT_EQ(p.candidates.X[0], x[0]);  // kept
