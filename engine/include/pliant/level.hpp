@@ -1,8 +1,10 @@
 // Level: one resolution of one body, the unit the scheduler steps. Structure of arrays, one
 // contiguous 64-byte-aligned array per component. A body with one level is simply L = 0.
 #pragma once
+#include <algorithm>
 #include <array>
 #include <cstdint>
+#include <iterator>
 #include <vector>
 
 #include "pliant/aligned.hpp"
@@ -87,6 +89,12 @@ struct Level {
   double window_dt = 0;              // s elapsed in this level's current window
   double window_start = 0;           // s, the time at which the current window began (of the positions)
   bool coupled() const { return !ghosts.empty() || !receivers.empty(); }
+  // Whether tet t is stepped: inside one of stepped_runs (sorted, disjoint; a binary search).
+  bool steps(std::size_t t) const {
+    const auto next = std::upper_bound(stepped_runs.begin(), stepped_runs.end(), t,
+                                       [](std::size_t x, const Range& r) { return x < r.begin; });
+    return next != stepped_runs.begin() && std::prev(next)->end > t;
+  }
 };
 
 }  // namespace pliant

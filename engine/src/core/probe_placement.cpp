@@ -75,10 +75,7 @@ bool place_probe_from_candidates(const SimBody<T>& body, const double X[3], Prob
     double best = -1e300, w[4], best_w[4] = {0, 0, 0, 0};
     std::int32_t chosen = -1;
     for (const std::int32_t e : c.tets[std::size_t(l)]) {
-      // Stepped: inside one of the level's runs (sorted, disjoint).
-      const auto run = std::upper_bound(L.stepped_runs.begin(), L.stepped_runs.end(), std::size_t(e),
-                                        [](std::size_t t, const Range& r) { return t < r.end; });
-      if (run == L.stepped_runs.end() || std::size_t(e) < run->begin) continue;
+      if (!L.steps(std::size_t(e))) continue;
       const double m = probe_weights(L, std::size_t(e), X, w);
       if (m > best) {
         best = m;

@@ -28,11 +28,6 @@ std::vector<Range>::iterator run_after(std::vector<Range>& runs, std::size_t t) 
   return std::upper_bound(runs.begin(), runs.end(), t, [](std::size_t x, const Range& r) { return x < r.begin; });
 }
 
-bool in_runs(std::vector<Range>& runs, std::size_t t) {
-  const auto next = run_after(runs, t);
-  return next != runs.begin() && std::prev(next)->end > t;
-}
-
 // Tet t starts being stepped: it extends, joins or starts a run (the runs stay maximal, as
 // runs_of would give them).
 void run_on(std::vector<Range>& runs, std::size_t t) {
@@ -283,7 +278,7 @@ ChangeSet apply_changes(SimBody<T>& body, PatchState& ps, const ActivationState&
     Level<T>& L = body.levels[l];
     for (const auto* list : {&on[l], &off[l]})
       for (auto t : *list) {
-        const bool want = as.stepped(int(l), t), have = in_runs(L.stepped_runs, std::size_t(t));
+        const bool want = as.stepped(int(l), t), have = L.steps(std::size_t(t));
         if (want && !have) {
           run_on(L.stepped_runs, std::size_t(t));
           ++L.stepped_count;
