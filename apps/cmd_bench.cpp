@@ -69,6 +69,7 @@ nlohmann::json to_json(const perf::Record& r) {
   j["samples"] = r.samples;
   j["others_busy"] = n(r.others_busy);
   j["round_trip_ns"] = n(r.round_trip_ns);
+  j["floor_p99_us"] = n(r.floor_p99_us);
   j["value"] = n(r.value);
   j["unit"] = s(r.unit);
   j["note"] = s(r.note);
@@ -126,7 +127,9 @@ int command_bench(const Options& o) {
     fmt::print("{}\n{}\n\n", info.note, std::string(80, '-'));
     fmt::print("{}", perf::format_table(all));
     fmt::print("\nns/tet and Mtet/s are medians; B/tet is the compulsory traffic of the pass (docs/performance.md); "
-               "roof% = roofline time / measured time; busy = cores used by other processes meanwhile.\n");
+               "roof% = roofline time / measured time; floor99 = p99 of fixed arithmetic lasting the median step, as many "
+               "runs on as many threads (the machine's own tail for work of that length); busy = cores used by other "
+               "processes meanwhile.\n");
   }
   return 0;
 }

@@ -324,6 +324,74 @@ double measure_round_trip(int round_trips) {
   return s / double(round_trips) * 1e9;
 }
 
+namespace {
+
+// A dependent chain of `iterations` multiply-adds (about 4 cycles each: the latency of one),
+// which the compiler cannot shorten (-ffp-contract=off and no reassociation; the result is
+// returned and kept).
+__attribute__((noinline)) double fixed_chain(long iterations, double x) {
+  for (long i = 0; i < iterations; ++i) x = x * 0.999999 + 1e-7;
+  return x;
+}
+
+}  // namespace
+
+std::vector<double> time_fixed_work(double seconds, int threads, std::size_t samples) {
+  std::vector<double> out;
+  if (!(seconds > 0) || samples == 0) return out;
+  threads = std::max(1, threads);
+  // Calibration: the fastest of a few runs of a chain long enough to time well (about 50 us).
+  double sink = 0;
+  long iterations = 1 << 14;
+  double best = 0;
+  for (int round = 0; round < 3; ++round) {
+    best = 1e300;
+    for (int i = 0; i < 5; ++i) {
+      const auto t0 = Clock::now();
+      sink += fixed_chain(iterations, 1.0);
+      best = std::min(best, seconds_since(t0));
+    }
+    iterations = std::max(1L, long(double(iterations) * 5e-5 / std::max(best, 1e-9)));
+  }
+  iterations = std::max(1L, long(double(iterations) * seconds / 5e-5));
+  // The other threads wait for each run's number, run the chain, and count themselves done.
+  std::atomic<long> run{-1};
+  std::atomic<int> done{0};
+  std::atomic<bool> stop{false};
+  std::vector<double> sinks(std::size_t(threads), 0.0);
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t)
+    pool.emplace_back([&, t] {
+      long seen = -1;
+      while (true) {
+        long now;
+        while ((now = run.load(std::memory_order_acquire)) == seen && !stop.load(std::memory_order_relaxed)) {
+        }
+        if (now == seen) break;  // stopped
+        seen = now;
+        sinks[std::size_t(t)] += fixed_chain(iterations, 1.0);
+        done.fetch_add(1, std::memory_order_release);
+      }
+    });
+  const std::size_t warmup = 5;
+  out.reserve(samples);
+  for (std::size_t i = 0; i < warmup + samples; ++i) {
+    done.store(0, std::memory_order_relaxed);
+    const auto t0 = Clock::now();
+    run.store(long(i), std::memory_order_release);
+    sink += fixed_chain(iterations, 1.0);
+    while (done.load(std::memory_order_acquire) < threads - 1) {
+    }
+    const double s = seconds_since(t0);
+    if (i >= warmup) out.push_back(s);
+  }
+  stop.store(true, std::memory_order_relaxed);
+  for (auto& t : pool) t.join();
+  for (double s : sinks) sink += s;
+  if (sink == 42.0) out.push_back(0);  // never true: keeps the chains' results alive
+  return out;
+}
+
 MachineLimits measure_machine_limits(const LimitOptions& o) {
   MachineLimits m;
   if (std::find_if(o.threads.begin(), o.threads.end(), [](int t) { return t >= 2; }) != o.threads.end() &&

@@ -139,6 +139,13 @@ double round_trip_for(int threads, double before = 0) {
   return std::max(before, measure_round_trip(20000));
 }
 
+// Record::floor_p99_us for a case whose steps gave `st` on `threads` threads.
+void add_floor(Record& r, const Stats& st, int threads) {
+  constexpr std::size_t kMostRuns = 20000;  // ~0.5 s at the small bodies' ~25 us
+  if (st.n == 0 || !(st.median > 0)) return;
+  r.floor_p99_us = 1e6 * stats_of(time_fixed_work(st.median, threads, std::min(st.n, kMostRuns))).p99;
+}
+
 void whole_step(Suite& s, World& w, const std::string& size, Order order, int threads,
                 const std::string& prefix = "") {
   std::vector<double> samples;
@@ -149,7 +156,9 @@ void whole_step(Suite& s, World& w, const std::string& size, Order order, int th
   r.size = size;
   r.order = to_string(order);
   r.others_busy = busy;
-  fill_speed(r, pass_cost(w, 0, Pass::step), stats_of(samples), s.limits, w.precision() == Precision::float64);
+  const Stats st = stats_of(samples);
+  fill_speed(r, pass_cost(w, 0, Pass::step), st, s.limits, w.precision() == Precision::float64);
+  add_floor(r, st, threads);
   r.realtime_factor = w.dt() * r.steps_per_s;
   s.publish(r);
 }
@@ -181,7 +190,9 @@ void scene_case(Suite& s, const std::string& name, const SceneDef& scene, int th
     }
     c.bytes *= w.substeps();
     c.flops *= w.substeps();
-    fill_speed(r, c, stats_of(samples), s.limits, w.precision() == Precision::float64);
+    const Stats st = stats_of(samples);
+    fill_speed(r, c, st, s.limits, w.precision() == Precision::float64);
+    add_floor(r, st, threads);
     r.realtime_factor = w.dt() * r.steps_per_s;
     r.note = fmt::format("dt {:.3g} s, {} substep(s)", w.dt(), w.substeps());
   } catch (const DivergenceError& e) {
@@ -224,6 +235,7 @@ void multires_case(Suite& s, const std::string& name, SceneDef scene, int thread
     r.step_p50_us = 1e6 * st.median;
     r.step_p99_us = 1e6 * st.p99;
     r.step_max_us = 1e6 * st.max;
+    add_floor(r, st, threads);
     r.realtime_factor = w.dt() * r.steps_per_s;
     r.mtets_per_s = tets / total / 1e6;
     r.ns_per_tet = 1e9 * total / tets;
@@ -533,7 +545,7 @@ std::string csv_header() {
   return "case,kind,model,precision,order,size,tets,nodes,threads,ns_per_tet,mtets_per_s,bytes_per_tet,gb_per_s,"
          "flops_per_tet,gflop_per_s,footprint_mib,roof_gb_per_s,roof_gflop_per_s,roof_ns_per_tet,roofline_fraction,"
          "bound,steps_per_s,step_p50_us,step_p99_us,step_max_us,realtime_factor,samples,others_busy,value,unit,note,"
-         "round_trip_ns";
+         "round_trip_ns,floor_p99_us";
 }
 
 std::string csv_row(const Record& r) {
@@ -543,13 +555,13 @@ std::string csv_row(const Record& r) {
     return out + "\"";
   };
   auto n = [](double v) { return std::isnan(v) ? std::string() : fmt::format("{:.6g}", v); };
-  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+  return fmt::format("{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
                      r.case_name, r.kind, r.model, r.precision, r.order, r.size, r.tets, r.nodes, r.threads,
                      n(r.ns_per_tet), n(r.mtets_per_s), n(r.bytes_per_tet), n(r.gb_per_s), n(r.flops_per_tet),
                      n(r.gflop_per_s), n(r.footprint_mib), n(r.roof_gb_per_s), n(r.roof_gflop_per_s),
                      n(r.roof_ns_per_tet), n(r.roofline_fraction), r.bound, n(r.steps_per_s), n(r.step_p50_us),
                      n(r.step_p99_us), n(r.step_max_us), n(r.realtime_factor), r.samples, n(r.others_busy), n(r.value),
-                     r.unit, q(r.note), n(r.round_trip_ns));
+                     r.unit, q(r.note), n(r.round_trip_ns), n(r.floor_p99_us));
 }
 
 std::string format_table(const std::vector<Record>& rs) {
@@ -565,9 +577,9 @@ std::string format_table(const std::vector<Record>& rs) {
         out << fmt::format("  {:<21} {:<6} {} thread(s): {:7.1f} GFLOP/s ({})\n", r.case_name.substr(8), r.precision,
                            r.threads, r.value, r.note);
     }
-  out << fmt::format("\n{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
+  out << fmt::format("\n{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
                      "case", "model", "prec", "order", "tets", "thr", "ns/tet", "Mtet/s", "B/tet", "GB/s", "GF/s",
-                     "roof%", "p50 us", "p99 us", "max us", "busy", "rt ns");
+                     "roof%", "p50 us", "p99 us", "floor99", "max us", "busy", "rt ns");
   for (const auto& r : rs) {
     if (r.kind == "machine" || r.kind == "summary") continue;
     if (std::isnan(r.ns_per_tet)) {
@@ -575,11 +587,11 @@ std::string format_table(const std::vector<Record>& rs) {
                          r.tets, r.threads, r.note);
       continue;
     }
-    out << fmt::format("{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
+    out << fmt::format("{:<22} {:<12} {:<6} {:<10} {:>9} {:>3} {:>8} {:>8} {:>6} {:>6} {:>6} {:>6} {:>9} {:>9} {:>9} {:>9} {:>5} {:>5}\n",
                        r.case_name, r.model, r.precision, r.order, r.tets, r.threads, num(r.ns_per_tet, "{:.2f}"),
                        num(r.mtets_per_s, "{:.1f}"), num(r.bytes_per_tet, "{:.0f}"), num(r.gb_per_s, "{:.1f}"),
                        num(r.gflop_per_s, "{:.1f}"), num(100 * r.roofline_fraction, "{:.0f}"),
-                       num(r.step_p50_us, "{:.1f}"), num(r.step_p99_us, "{:.1f}"), num(r.step_max_us, "{:.1f}"),
+                       num(r.step_p50_us, "{:.1f}"), num(r.step_p99_us, "{:.1f}"), num(r.floor_p99_us, "{:.1f}"), num(r.step_max_us, "{:.1f}"),
                        num(r.others_busy, "{:.2f}"), num(r.round_trip_ns, "{:.0f}"));
   }
   // Cases whose threads the host had put far apart: on the 2-vCPU guests of docs/performance.md the

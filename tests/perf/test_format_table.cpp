@@ -38,5 +38,17 @@ TEST(BenchTable, SaysWhenTwoThreadCasesRanWithTheirThreadsFarApart) {
   EXPECT_THAT(format_table(mixed), HasSubstr("note: 1 of the 2 cases on 2+ threads ran with a cache-line round trip over 250 ns"));
 }
 
+// The machine's tail beside the step's (column floor99): a case's floor_p99_us printed between
+// its p99 and its max.
+TEST(BenchTable, PrintsTheFloorBesideTheStepP99) {
+  Record r = scene_case(2, 110);
+  r.step_p99_us = 54.6;
+  r.floor_p99_us = 50.4;
+  r.step_max_us = 138.5;
+  const std::string t = format_table({r});
+  EXPECT_THAT(t, HasSubstr("p99 us   floor99    max us"));
+  EXPECT_THAT(t, HasSubstr("54.6      50.4     138.5"));
+}
+
 }  // namespace
 }  // namespace pliant::perf

@@ -9,6 +9,7 @@ are checked against figures worked out by hand from the fixtures. No timing.
 import os
 import subprocess
 import sys
+import tempfile
 import unittest
 
 SOURCE = os.path.abspath(sys.argv.pop(1) if len(sys.argv) > 1 else os.path.join(os.path.dirname(__file__), "..", ".."))
@@ -54,7 +55,29 @@ class SummarizeResults(unittest.TestCase):
         line = next(l for l in self.out.splitlines() if l.startswith("| default | float | 3863 | 2 |"))
         c = cells(line)
         self.assertEqual(c[5], "25.0 (20.0..30.0)")
-        self.assertEqual(c[8], "4.00 (3.80..4.20)")
+        self.assertEqual(c[7], "")  # floor p99: these CSVs are from before the column
+        self.assertEqual(c[9], "4.00 (3.80..4.20)")
+
+    def test_the_scene_table_gives_the_median_floor(self):
+        # Two runs of a bench CSV with the floor column: step p99 54.6 and 60.0, floor 50.4 and 41.0.
+        header = ("case,kind,model,precision,order,size,tets,nodes,threads,ns_per_tet,mtets_per_s,bytes_per_tet,gb_per_s,"
+                  "flops_per_tet,gflop_per_s,footprint_mib,roof_gb_per_s,roof_gflop_per_s,roof_ns_per_tet,roofline_fraction,"
+                  "bound,steps_per_s,step_p50_us,step_p99_us,step_max_us,realtime_factor,samples,others_busy,value,unit,note,"
+                  "round_trip_ns,floor_p99_us")
+        paths = []
+        with tempfile.TemporaryDirectory() as d:
+            for i, (p99, floor) in enumerate([(54.6, 50.4), (60.0, 41.0)]):
+                path = os.path.join(d, f"run{i}.csv")
+                with open(path, "w") as f:
+                    f.write(header + "\n")
+                    f.write(f"scene/box2k,scene,corotational,float,,,2016,525,2,13.2,,,,,,,,,,,,37000,27.0,{p99},140,16.0,10000,0,,,,130,{floor}\n")
+                paths.append(path)
+            p = subprocess.run([sys.executable, SCRIPT, *paths], capture_output=True, text=True)
+        self.assertEqual(p.returncode, 0, p.stderr)
+        line = next(l for l in p.stdout.splitlines() if l.startswith("| box2k | float | 2016 | 2 |"))
+        c = cells(line)
+        self.assertEqual(c[6], "57.3")  # p99
+        self.assertEqual(c[7], "45.7")  # floor p99
 
     def test_a_skipped_scene_gives_its_note(self):
         row = self.rows[("scene/cantilever", "", "1")]

@@ -40,6 +40,10 @@ struct Record {
   // small bodies' 2-thread steps with it (the default scene 53 against 87 us): figures compare
   // only at like round trips.
   double round_trip_ns = kNone;
+  // Step and scene cases: the p99 of fixed arithmetic lasting the case's median step, timed as
+  // many times (up to 20 000) on as many threads right after it (time_fixed_work, machine.hpp):
+  // the tail the machine alone gives work of that length. A step p99 near it is the machine's.
+  double floor_p99_us = kNone;
   double value = kNone;                                    // machine and summary records
   std::string unit, note;
 };
