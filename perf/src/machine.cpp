@@ -339,7 +339,8 @@ __attribute__((noinline)) double fixed_chain(long iterations, double x) {
 std::vector<double> time_fixed_work(double seconds, int threads, std::size_t samples) {
   std::vector<double> out;
   if (!(seconds > 0) || samples == 0) return out;
-  threads = std::max(1, threads);
+  // No more threads than logical CPUs: spinning ones would wait for each other's time slices.
+  threads = std::clamp(threads, 1, int(std::max(1u, std::thread::hardware_concurrency())));
   // Calibration: the fastest of a few runs of a chain long enough to time well (about 50 us).
   double sink = 0;
   long iterations = 1 << 14;

@@ -139,7 +139,9 @@ double round_trip_for(int threads, double before = 0) {
   return std::max(before, measure_round_trip(20000));
 }
 
-// Record::floor_p99_us for a case whose steps gave `st` on `threads` threads.
+// Record::floor_p99_us for a case whose steps gave `st` on `threads` threads (the world's: the
+// executor clamps a request beyond the cores, and spinning more threads than cores would time the
+// OS's time slices).
 void add_floor(Record& r, const Stats& st, int threads) {
   constexpr std::size_t kMostRuns = 20000;  // ~0.5 s at the small bodies' ~25 us
   if (st.n == 0 || !(st.median > 0)) return;
@@ -158,7 +160,7 @@ void whole_step(Suite& s, World& w, const std::string& size, Order order, int th
   r.others_busy = busy;
   const Stats st = stats_of(samples);
   fill_speed(r, pass_cost(w, 0, Pass::step), st, s.limits, w.precision() == Precision::float64);
-  add_floor(r, st, threads);
+  add_floor(r, st, w.threads());
   r.realtime_factor = w.dt() * r.steps_per_s;
   s.publish(r);
 }
@@ -192,7 +194,7 @@ void scene_case(Suite& s, const std::string& name, const SceneDef& scene, int th
     c.flops *= w.substeps();
     const Stats st = stats_of(samples);
     fill_speed(r, c, st, s.limits, w.precision() == Precision::float64);
-    add_floor(r, st, threads);
+    add_floor(r, st, w.threads());
     r.realtime_factor = w.dt() * r.steps_per_s;
     r.note = fmt::format("dt {:.3g} s, {} substep(s)", w.dt(), w.substeps());
   } catch (const DivergenceError& e) {
@@ -235,7 +237,7 @@ void multires_case(Suite& s, const std::string& name, SceneDef scene, int thread
     r.step_p50_us = 1e6 * st.median;
     r.step_p99_us = 1e6 * st.p99;
     r.step_max_us = 1e6 * st.max;
-    add_floor(r, st, threads);
+    add_floor(r, st, w.threads());
     r.realtime_factor = w.dt() * r.steps_per_s;
     r.mtets_per_s = tets / total / 1e6;
     r.ns_per_tet = 1e9 * total / tets;
