@@ -63,8 +63,9 @@ double measure_round_trip(int round_trips);
 
 // The machine's own tail for work of one length: `samples` runs, timed one by one, of fixed
 // arithmetic lasting about `seconds` (one dependent chain of multiply-adds, no memory traffic),
-// on `threads` threads at once (each the same arithmetic, released together; a run ends when the
-// last of them has finished; the threads spin between runs and never sleep). Whatever makes a run
+// on `threads` threads at once (at most the logical CPUs; each the same arithmetic, released
+// together; a run ends when the last of them has finished; the threads spin between runs and never
+// sleep). Whatever makes a run
 // longer than its median is the machine's, not the code's: interrupts, the host's exits, other
 // guests. A case's step p99 compares with the p99 of this at the step's median length
 // (Record::floor_p99_us): on a 2-vCPU KVM guest, 28 us of arithmetic had a p99 of 50 us
