@@ -299,6 +299,17 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   L.omega_measured = highest_frequency(exec, L, kFrequencyIterations);
   L.omega_max = std::max(L.omega_geometric, L.omega_measured / kFrequencyMargin);
   L.stable_dt = stable_step_for(L.omega_max, def.material, def.model, courant);
+  // Numbers each finite can still leave no step: damping so strong that (2/omega)(sqrt(1+z^2) - z)
+  // cancels to 0 (damping.mass 1e12 1/s) or overflows to NaN (viscosities of 1e300 Pa s), or a mesh
+  // whose face areas overflow or underflow (coordinates of 1e100 m), giving an infinite frequency.
+  // Accepted, such a body set the world's step to 0 s: step() did nothing, advance_to never ended.
+  if (!(L.stable_dt > 0) || !std::isfinite(L.stable_dt))
+    throw InputError(fmt::format(
+        "body '{}': no stable time step: {:g} s from a highest frequency of {:g} rad/s (smallest tet altitude {:g} m) "
+        "and material.damping mass {:g} 1/s, stiffness {:g} s, viscosities {:g} and {:g} Pa s; the explicit step "
+        "cannot follow such damping or such a mesh (check the damping, and the mesh's scale: metres)",
+        def.name, L.stable_dt, L.omega_max, h_min, d.mass, d.stiffness, double(L.bulk_viscosity),
+        double(L.shear_viscosity)));
   L.stepped_runs = {Range{0, nt}};
   L.stepped_count = nt;
   return L;

@@ -88,7 +88,13 @@ double stable_step_for(double omega_max, const MaterialDef& m, ForceModel model,
   // Symplectic Euler on x'' = -omega^2 x - 2 zeta omega x' (velocity terms at the old velocity)
   // is stable iff (omega dt)^2 + 4 zeta (omega dt) <= 4, i.e. dt <= (2/omega)(sqrt(1+z^2) - z);
   // the left side grows with omega, so the highest mode sets the step.
-  return courant * (2.0 / omega_max) * (std::sqrt(1 + zeta * zeta) - zeta);
+  // For a highest mode damped far beyond critical the difference cancels (about 8 digits lost at
+  // zeta = 1e4, all of them at 1e8: damping.mass = 1e12 1/s gave a step of 0 s, or one off by
+  // orders of magnitude); there it is computed as the same number 1 / (sqrt(1+z^2) + z). Below,
+  // as it always was (the same bits for every scene that was ever run).
+  constexpr double kCancels = 1e4;
+  const double root = std::sqrt(1 + zeta * zeta);
+  return courant * (2.0 / omega_max) * (zeta > kCancels ? 1 / (root + zeta) : root - zeta);
 }
 
 double courant_time_step(double h_min, const MaterialDef& m, ForceModel model, double courant) {

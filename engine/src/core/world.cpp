@@ -30,9 +30,21 @@ void cauchy_stress(Executor& exec, const Simulation<T>& sim, const SimBody<T>& b
 
 namespace {
 
+// A normal's components over its largest magnitude: the same direction, with a squared length in
+// [1, 3] whatever the components' size (1e200 squared is infinite, 1e-200 squared is 0). Only where
+// the plain squared length leaves the normal range of doubles: elsewhere the normal is divided by
+// its length as it always was (the same bits).
+Vec3d rescaled_normal(const Vec3d& n) {
+  const double n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+  if (n2 >= 1e-290 && n2 <= 1e290) return n;
+  const double m = std::max({std::fabs(n[0]), std::fabs(n[1]), std::fabs(n[2])});
+  return m > 0 ? Vec3d{n[0] / m, n[1] / m, n[2] / m} : n;
+}
+
 // The obstacles with unit normals (World's constructor has checked them).
 std::vector<ObstacleDef> unit_obstacles(std::vector<ObstacleDef> obstacles) {
   for (ObstacleDef& o : obstacles) {
+    o.normal = rescaled_normal(o.normal);
     const double n = std::sqrt(o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2]);
     for (double& c : o.normal) c /= n;
   }
@@ -45,10 +57,62 @@ void check_obstacles(const std::vector<ObstacleDef>& obstacles) {
     bool finite = std::isfinite(o.friction);
     for (int k = 0; k < 3; ++k) finite = finite && std::isfinite(o.point[k]) && std::isfinite(o.normal[k]);
     if (!finite) throw InputError(fmt::format("obstacles[{}]: point, normal and friction must be finite", i));
-    const double n2 = o.normal[0] * o.normal[0] + o.normal[1] * o.normal[1] + o.normal[2] * o.normal[2];
-    if (!(n2 > 1e-300)) throw InputError(fmt::format("obstacles[{}]: the plane's normal must not be [0, 0, 0]", i));
+    const Vec3d n = rescaled_normal(o.normal);
+    if (!(n[0] != 0 || n[1] != 0 || n[2] != 0))
+      throw InputError(fmt::format("obstacles[{}]: the plane's normal must not be [0, 0, 0]", i));
     if (!(o.friction >= 0)) throw InputError(fmt::format("obstacles[{}]: friction must be >= 0, got {}", i, o.friction));
   }
+}
+
+// An enum's value among its enumerators [0, count): a host that casts a number into one (a
+// scene file cannot) gets an error naming the field, not a switch that matches no case.
+template <class E>
+void check_enum(E value, int count, const std::string& field) {
+  const auto v = static_cast<long long>(value);
+  if (v < 0 || v >= count) throw InputError(fmt::format("{}: {} is not one of its {} values", field, v, count));
+}
+
+// What add_body can check of a BodyDef before any mesh is built: the fields a scene file could not
+// hold (enum values outside their lists) and the choices whose limits the scene reader enforces
+// (docs/scene-format.md): 1..kMaxLevels levels (INT_MAX levels tried to allocate as many meshes),
+// a fixed active level that exists, adaptivity on 2 levels or more, at least one keyframe per
+// prescribed motion, and nodes to calibrate against.
+void check_body_def(const BodyDef& def) {
+  const auto field = [&](const std::string& f) { return fmt::format("body '{}': {}", def.name, f); };
+  check_enum(def.model, 4, field("model"));
+  check_enum(def.mesh.kind, 4, field("mesh.kind"));
+  // (An empty node list selected nothing without a word, where an empty box is an error.)
+  const auto region = [&](const RegionDef& r, const std::string& where) {
+    check_enum(r.kind, 3, field(where + ".kind"));
+    if (r.kind == RegionDef::Kind::nodes && r.nodes.empty())
+      throw InputError(field(where + " lists no node (a nodes region must list at least one)"));
+  };
+  for (std::size_t i = 0; i < def.fixed.size(); ++i) region(def.fixed[i], fmt::format("fixed[{}]", i));
+  for (std::size_t i = 0; i < def.prescribed.size(); ++i) {
+    region(def.prescribed[i].region, fmt::format("prescribed[{}].region", i));
+    if (def.prescribed[i].keyframes.empty())
+      throw InputError(field(fmt::format("prescribed[{}].keyframes must list at least one keyframe", i)));
+  }
+  for (std::size_t i = 0; i < def.loads.size(); ++i) region(def.loads[i].region, fmt::format("loads[{}].region", i));
+  const MultiresolutionDef& mr = def.multiresolution;
+  if (mr.levels < 1 || mr.levels > kMaxLevels)
+    throw InputError(field(fmt::format("multiresolution.levels must be in 1 .. {}, got {}", kMaxLevels, mr.levels)));
+  const ActiveDef& a = mr.active;
+  check_enum(a.kind, 5, field("multiresolution.active.kind"));
+  if (a.kind == ActiveDef::Kind::level && (a.level < 0 || a.level >= mr.levels))
+    throw InputError(field(fmt::format("multiresolution.active.level must be in 0 (coarsest) .. {} (finest), got {}",
+                                       mr.levels - 1, a.level)));
+  if (a.kind == ActiveDef::Kind::regions)
+    for (std::size_t i = 0; i < a.regions.size(); ++i)
+      region(a.regions[i].region, fmt::format("multiresolution.active.regions[{}]", i));
+  if (a.kind == ActiveDef::Kind::adaptive) {
+    if (mr.levels < 2)
+      throw InputError(field(fmt::format("multiresolution.active \"adaptive\" needs at least 2 levels, got {}", mr.levels)));
+    check_enum(a.adapt.measure, 2, field("multiresolution.adapt.measure"));
+  }
+  if (mr.calibrate && mr.levels > 1 && def.fixed.empty() && def.prescribed.empty())
+    throw InputError(field("multiresolution.calibrate needs fixed nodes (it matches each level's deflection under its own "
+                           "weight against them), and the body has no fixed or prescribed region"));
 }
 
 }  // namespace
@@ -266,7 +330,12 @@ World::World(const WorldDef& def) {
   if (def.time_step.dt && !(*def.time_step.dt > 0 && std::isfinite(*def.time_step.dt)))
     throw InputError(fmt::format("time_step.dt must be \"auto\" or a finite number > 0, got {}", *def.time_step.dt));
   for (int k = 0; k < 3; ++k)
-    if (!std::isfinite(def.gravity[k])) throw InputError("gravity must be 3 finite numbers");
+    if (!std::isfinite(def.gravity[k]))
+      throw InputError(fmt::format("gravity must be 3 finite numbers (m/s^2), got [{}, {}, {}]", def.gravity[0],
+                                   def.gravity[1], def.gravity[2]));
+  check_enum(def.precision, 2, "precision");
+  check_enum(def.schedule, 2, "schedule");
+  check_enum(def.packed_corners, 3, "packed_corners");
   if (def.threads < 0) throw InputError(fmt::format("threads must be >= 0 (0 = all cores), got {}", def.threads));
   check_obstacles(def.obstacles);
   impl_ = std::make_unique<Impl>(def);
@@ -362,9 +431,20 @@ bool has_node_regions(const BodyDef& def) {
 TetMesh build_mesh(const MeshSourceDef& src, MeshLoadReport* report) { return build_mesh_mapped(src, report, nullptr); }
 
 BodyId World::add_body(const BodyDef& def) {
+  check_body_def(def);  // before the mesh is built or read
   std::vector<std::int32_t> old_to_new;
   MeshLoadReport read;  // what the reader skipped or fixed
-  TetMesh mesh = build_mesh_mapped(def.mesh, &read, &old_to_new);
+  TetMesh mesh;
+  try {
+    mesh = build_mesh_mapped(def.mesh, &read, &old_to_new);
+  } catch (const InputError& e) {
+    // Which body: a box's or a shape's error (and mesh.scale's, mesh.translate's) names no file.
+    // A reader's names its file, and a mesher's its surface: those are left as they are.
+    const std::string what = e.what();
+    const bool names_file = def.mesh.kind == MeshSourceDef::Kind::file || def.mesh.kind == MeshSourceDef::Kind::surface;
+    if (what.rfind("body '", 0) == 0 || (names_file && what.rfind("mesh", 0) != 0)) throw;
+    throw InputError(fmt::format("body '{}': {}", def.name, what));
+  }
   // A file's numbering -> the engine's: the reader dropped unused vertices (read.vertex_map),
   // then the mesh was renumbered for locality (old_to_new). "nodes" regions count in the file's.
   std::vector<std::int32_t> file_map;
@@ -401,6 +481,7 @@ const MeshLoadReport& World::mesh_load_report(BodyId body) const {
 }
 
 BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
+  check_body_def(def);
   if (find_body(def.name) >= 0) throw InputError(fmt::format("a body named '{}' exists already", def.name));
   MeshLoadReport report;
   finalize_tet_mesh(mesh, fmt::format("body '{}'", def.name), report);
@@ -410,8 +491,16 @@ BodyId World::add_body(const BodyDef& def, TetMesh mesh) {
     using T = std::remove_reference_t<decltype(s.gravity[0])>;
     detail::SimBody<T> b;
     if (def.multiresolution.levels > 1) {
-      auto h = std::make_shared<const Hierarchy>(link_levels(build_level_meshes(def, std::move(mesh))));
-      b = detail::build_multilevel_body<T>(*h, def, impl_->def.time_step.courant, impl_->exec);
+      std::shared_ptr<const Hierarchy> h;
+      try {
+        h = std::make_shared<const Hierarchy>(link_levels(build_level_meshes(def, std::move(mesh))));
+        b = detail::build_multilevel_body<T>(*h, def, impl_->def.time_step.courant, impl_->exec);
+      } catch (const InputError& e) {
+        // The hierarchy's and the activation's errors ("level 2 of the hierarchy has no tets",
+        // "multiresolution.active: node 99999 does not exist") name no body.
+        if (std::string_view(e.what()).rfind("body '", 0) == 0) throw;
+        throw InputError(fmt::format("body '{}': {}", def.name, e.what()));
+      }
       if (def.multiresolution.active.kind == ActiveDef::Kind::adaptive) {
         const AdaptDef& ad = def.multiresolution.active.adapt;
         if (!(std::isfinite(ad.refine_above) && ad.refine_above > 0))
@@ -491,6 +580,7 @@ ToolId World::add_tool(const ToolDef& in) {
   ToolDef def = in;
   const std::string who = fmt::format("tool '{}'", def.name);
   const ToolShapeDef& sh = def.shape;
+  check_enum(sh.kind, 2, who + ": shape.kind");
   if (!std::isfinite(sh.radius) || !(sh.radius > 0))
     throw InputError(fmt::format("{}: shape radius must be a positive length (m), got {}", who, sh.radius));
   if (sh.kind == ToolShapeDef::Kind::capsule && (!std::isfinite(sh.length) || !(sh.length > 0)))
@@ -710,6 +800,11 @@ const HapticLink& World::haptic_link(ToolId id) const {
 int World::add_probe(const ProbeDef& def) {
   const BodyId b = find_body(def.body);
   if (b < 0) throw InputError(fmt::format("probe '{}': no body named '{}'", def.name, def.body));
+  // (An infinite point was "inside" nowhere but said to lie 1e150 m from the body; a point of
+  // finite but huge numbers still gets that report.)
+  if (!std::isfinite(def.point[0]) || !std::isfinite(def.point[1]) || !std::isfinite(def.point[2]))
+    throw InputError(fmt::format("probe '{}': point must be 3 finite numbers (m), got [{}, {}, {}]", def.name, def.point[0],
+                                 def.point[1], def.point[2]));
   return impl_->visit([&](auto& s) {
     const auto& body = s.bodies[std::size_t(b)];
     // The point in the body frame.
@@ -810,6 +905,9 @@ void World::step() {
 
 std::int64_t World::advance_to(double t) {
   if (!std::isfinite(t)) throw InputError(fmt::format("advance_to: the time must be finite, got {}", t));
+  // Without a body there is no step (0 s): the loop below would never reach t.
+  if (!(impl_->dt > 0))
+    throw InputError(fmt::format("advance_to({}): the world has no body, so no time step to advance by", t));
   std::int64_t n = 0;
   while (impl_->time + 0.5 * impl_->dt <= t) {
     step();
@@ -995,7 +1093,9 @@ Vec3d World::body_origin(BodyId b) const {
 Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
-    if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
+    if (n >= L.node_count)
+      throw InputError(fmt::format("body '{}', level {}: no node {} (it has {})", impl_->body(s, b).def.name, l, n,
+                                   L.node_count));
     const Vec3d& o = impl_->body(s, b).origin;
     return Vec3d{o[0] + double(L.x[0][n]), o[1] + double(L.x[1][n]), o[2] + double(L.x[2][n])};
   });
@@ -1003,7 +1103,9 @@ Vec3d World::node_position(BodyId b, std::size_t n, int l) const {
 Vec3d World::node_rest_position(BodyId b, std::size_t n, int l) const {
   return impl_->visit([&](auto& s) {
     const auto& L = impl_->level(s, b, l);
-    if (n >= L.node_count) throw InputError(fmt::format("node {} out of range ({} nodes)", n, L.node_count));
+    if (n >= L.node_count)
+      throw InputError(fmt::format("body '{}', level {}: no node {} (it has {})", impl_->body(s, b).def.name, l, n,
+                                   L.node_count));
     const Vec3d& o = impl_->body(s, b).origin;
     return Vec3d{o[0] + double(L.X[0][n]), o[1] + double(L.X[1][n]), o[2] + double(L.X[2][n])};
   });
@@ -1016,7 +1118,9 @@ void World::set_motion_offset(BodyId b, int motion, const Vec3d& offset) {
       throw InputError(fmt::format("body '{}' has no prescribed motion {} (it has {})", body.def.name, motion,
                                    body.motions.size()));
     for (int k = 0; k < 3; ++k)
-      if (!std::isfinite(offset[k])) throw InputError("set_motion_offset: offset must be finite");
+      if (!std::isfinite(offset[k]))
+        throw InputError(fmt::format("set_motion_offset: body '{}', motion {}: the offset must be 3 finite numbers (m), "
+                                     "got [{}, {}, {}]", body.def.name, motion, offset[0], offset[1], offset[2]));
     auto& m = body.motions[std::size_t(motion)];
     // Keep the velocity consistent: the offset at the start of each level's current window (now,
     // for a level between windows) becomes the start of its next step.
@@ -1033,12 +1137,22 @@ void World::set_motion_offset(BodyId b, int motion, const Vec3d& offset) {
 std::size_t World::probe_count() const {
   return impl_->visit([](auto& s) { return s.probes.size(); });
 }
+namespace {
+// s.probes[p], or an InputError naming the probe number and how many there are.
+template <class S>
+const auto& probe_of(const S& s, int p) {
+  if (p < 0 || std::size_t(p) >= s.probes.size())
+    throw InputError(fmt::format("no probe {} (the world has {})", p, s.probes.size()));
+  return s.probes[std::size_t(p)];
+}
+}  // namespace
+
 const std::string& World::probe_name(int p) const {
-  return impl_->visit([&](auto& s) -> const std::string& { return s.probes.at(std::size_t(p)).name; });
+  return impl_->visit([&](auto& s) -> const std::string& { return probe_of(s, p).name; });
 }
 Vec3d World::probe_position(int p) const {
   return impl_->visit([&](auto& s) {
-    const auto& pr = s.probes.at(std::size_t(p));
+    const auto& pr = probe_of(s, p);
     const auto& body = s.bodies[std::size_t(pr.body)];
     const auto& L = body.levels[std::size_t(pr.level)];
     Vec3d local{0, 0, 0};
@@ -1093,7 +1207,9 @@ double World::max_displacement() const {
             const double u = double(L.x[k][n]) - double(L.X[k][n]);
             u2 += u * u;
           }
-          m = std::max(m, std::sqrt(u2));
+          // (Not std::max, which drops a NaN: a host's NaN position read as no displacement.)
+          const double u = std::sqrt(u2);
+          if (!(u <= m)) m = u;
         }
     return m;
   });

@@ -114,7 +114,9 @@ void transform_mesh(TetMesh& mesh, double scale, const Vec3d& translate) {
   if (!std::isfinite(scale) || !(scale > 0))
     throw InputError(fmt::format("mesh scale must be finite and positive, got {}", scale));
   for (double t : translate)
-    if (!std::isfinite(t)) throw InputError("mesh translation must be finite");
+    if (!std::isfinite(t))
+      throw InputError(fmt::format("mesh.translate must be 3 finite numbers (m), got [{}, {}, {}]", translate[0],
+                                   translate[1], translate[2]));
   for (std::size_t i = 0; i < mesh.points.size(); ++i)
     mesh.points[i] = mesh.points[i] * scale + translate[i % 3];
 }
