@@ -135,7 +135,7 @@ TEST(BadInput, AdvancingAWorldWithoutABodyIsAnError) {
 }
 
 // Numbers each finite whose stable step is not: damping whose damping ratio overflows, a mesh so
-// large that its face areas overflow. The body was accepted with a step of 0 s (or NaN): step()
+// small that its face areas underflow. The body was accepted with a step of 0 s (or NaN): step()
 // did nothing and advance_to hung.
 TEST(BadInput, ABodyWithoutAFinitePositiveStableStepIsRefused) {
   const struct {
@@ -145,7 +145,8 @@ TEST(BadInput, ABodyWithoutAFinitePositiveStableStepIsRefused) {
   } cases[] = {
       {"damping.stiffness 1e300", [](BodyDef& b) { b.material.damping.stiffness = 1e300; }, "damping"},
       {"shear_viscosity 1e300", [](BodyDef& b) { b.material.damping.shear_viscosity = 1e300; }, "damping"},
-      {"mesh 1e100 m", [](BodyDef& b) { b.mesh.scale = 1e100; }, "mesh"},
+      // Face areas' squares underflow to 0: an altitude of 0, an infinite frequency.
+      {"mesh 1e-91 m", [](BodyDef& b) { b.mesh.scale = 1e-90; }, "mesh"},
   };
   for (const auto& c : cases) {
     BodyDef b = small_box();
@@ -166,6 +167,18 @@ TEST(BadInput, AStronglyMassDampedBodyGetsItsStepWithoutCancellation) {
     const double courant = WorldDef{}.time_step.courant;
     EXPECT_NEAR(w.stable_dt(), courant * 2 / alpha, 1e-12 * courant * 2 / alpha) << alpha;
   }
+}
+
+// A mesh reaching beyond the divergence limit (1e15 m from its centre) was accepted and stopped at
+// its first step, at rest, with a DivergenceError.
+TEST(BadInput, AMeshBeyondTheDivergenceLimitIsRefused) {
+  BodyDef b = small_box();
+  b.mesh.scale = 1e17;  // 2e16 m long
+  b.fixed.clear();
+  expect_body_refused(b, {"box", "beyond", "scale"}, "mesh of 2e16 m");
+  b.mesh.scale = 1e14;  // 2e13 m: within the limit
+  World w;
+  EXPECT_NO_THROW(w.add_body(b));
 }
 
 // An infinite point was accepted and the probe read NaN.

@@ -182,6 +182,13 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
   std::vector<double> local(3 * nn);
   for (std::size_t i = 0; i < nn; ++i)
     for (int k = 0; k < 3; ++k) local[3 * i + k] = mesh.points[3 * i + k] - origin[k];
+  // The divergence check counts a position beyond kDivergedMagnitude from the body frame's origin
+  // as diverged: a mesh that large was accepted and stopped at its first step, at rest.
+  for (std::size_t i = 0; i < 3 * nn; ++i)
+    if (!(std::fabs(local[i]) < kDivergedMagnitude))
+      throw InputError(fmt::format("body '{}': the mesh reaches {:g} m from its centre, beyond the {:g} m at which a "
+                                   "position counts as diverged (check the mesh's scale: metres)",
+                                   def.name, std::fabs(local[i]), kDivergedMagnitude));
   for (int k = 0; k < 3; ++k) {
     L.X[k].resize(nn);
     L.x[k].resize(nn);
