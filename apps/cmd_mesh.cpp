@@ -26,6 +26,10 @@ struct LevelOptions {
 
 int command_mesh(const std::string& input, const std::string& implicit, double cell_size, bool repair,
                  const std::string& output, const LevelOptions& lo) {
+  // (A file given with --implicit was ignored without a word.)
+  if (!implicit.empty() && !input.empty())
+    throw InputError(fmt::format("pliant mesh: give a file ({}) or --implicit {}, not both", input, implicit));
+  refuse_overwriting_input(input, output, "-o");
   const auto start = std::chrono::steady_clock::now();
   TetMesh mesh;
   if (!implicit.empty()) {

@@ -30,6 +30,13 @@ struct RenderArgs {
 
 }  // namespace
 
+void refuse_overwriting_input(const std::string& input, const std::string& output, const char* option) {
+  if (input.empty() || output.empty()) return;
+  std::error_code ec;
+  if (std::filesystem::equivalent(input, output, ec))
+    throw InputError(fmt::format("{} {}: is the input file; give another path for the output", option, output));
+}
+
 void set_view(std::optional<double>& azimuth_out, std::optional<double>& elevation_out, std::optional<double> azimuth,
               std::optional<double> elevation) {
   if (azimuth && !std::isfinite(*azimuth)) throw InputError(fmt::format("--azimuth must be finite (degrees), got {}", *azimuth));
@@ -54,6 +61,7 @@ int command_render(const RenderArgs& a) {
   std::optional<raster::Field> field;
   if (!a.field.empty()) field = raster::parse_field(a.field, "--field");
   const fs::path out = a.output.empty() ? fs::path(a.input).stem().concat(".png") : fs::path(a.output);
+  refuse_overwriting_input(a.input, out.string(), "-o");
 
   raster::Frame frame;
   if (ext == ".json") {

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <fmt/format.h>
 #include <optional>
 
@@ -112,6 +113,8 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
   if (realtime_priority && !realtime && !scene.realtime)
     throw InputError("--realtime-priority needs a real-time run (--realtime or \"realtime\": true in the scene)");
   opt.realtime_priority = realtime_priority;
+  if (realtime_frame && !realtime && !scene.realtime)
+    throw InputError("--realtime-frame needs a real-time run (--realtime or \"realtime\": true in the scene)");
   if (realtime_frame) {
     if (!(*realtime_frame >= 0 && std::isfinite(*realtime_frame)))
       throw InputError(fmt::format("--realtime-frame must be a finite number >= 0 (s), got {}", *realtime_frame));
@@ -125,6 +128,13 @@ int command_run(const std::string& scene_path, const std::string& out, std::opti
     throw InputError(fmt::format("--progress-every must be a finite number > 0 (s), got {}", progress_every));
   if (duration && !(*duration > 0 && std::isfinite(*duration)))
     throw InputError(fmt::format("--duration must be a finite number > 0 (s), got {}", *duration));
+  // Before the world is built (a file named by --out failed after minutes of meshing, as a
+  // filesystem error naming neither the option nor the problem).
+  if (!dry_run) {
+    std::error_code ec;
+    if (std::filesystem::exists(out, ec) && !std::filesystem::is_directory(out, ec))
+      throw InputError(fmt::format("--out {}: exists and is not a folder", out));
+  }
 
   // Pictures: options are checked before the run starts.
   raster::RecorderOptions ro;

@@ -30,6 +30,7 @@ Command add_stability_command(CLI::App& app) {
                   "Run only the cells whose label contains this text (as printed, e.g. \"adaptive_push linear double\")");
   return {sub, [o]() -> int {
             if (o->threads < 1) throw InputError("--threads must be >= 1");
+            if (o->steps < 0) throw InputError(fmt::format("--steps must be > 0, got {}", o->steps));  // (0: the default)
             stability::MatrixOptions mo;
             mo.full = !o->subset;
             mo.steps = o->steps > 0 ? o->steps : (o->subset ? 1000 : 2000);
@@ -58,6 +59,10 @@ Command add_stability_command(CLI::App& app) {
               std::fflush(stdout);
             };
             const auto results = stability::run_matrix(mo);
+            // A filter that matches nothing ran 0 cells and passed ("0 unexpected"): a typo in a CI job.
+            if (results.empty() && !o->filter.empty())
+              throw InputError(fmt::format("--filter \"{}\": no cell of the {} matrix has it in its label", o->filter,
+                                           o->subset ? "subset" : "full"));
             const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
             int counts[4] = {0, 0, 0, 0};
             for (const auto& r : results) ++counts[int(r.outcome)];

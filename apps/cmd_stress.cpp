@@ -2,6 +2,8 @@
 // §5), checked for divergence, non-finite or unbounded energy, thread-count reproducibility of
 // the state hash and flat resident memory. Exit 0 when all checks pass, 3 otherwise.
 #include <fmt/format.h>
+#include <cmath>
+#include <filesystem>
 #include <fstream>
 
 #include "commands.hpp"
@@ -38,8 +40,29 @@ Command add_stress_command(CLI::App& app) {
                 "--no-capsules keeps every tool a sphere, as they all were before 2026-11-26");
   sub->add_option("--scene", o->scene, "Run only the scene of this seed (as printed for a failure), e.g. 0x71c1...");
   return {sub, [o]() -> int {
-            if (!(o->seconds >= 0)) throw InputError("--seconds must be >= 0");
+            if (!(o->seconds >= 0 && std::isfinite(o->seconds)))
+              throw InputError(fmt::format("--seconds must be a finite number >= 0, got {}", o->seconds));
             if (o->threads < 1) throw InputError("--threads must be >= 1");
+            if (o->max_scenes < 0 && o->max_scenes != -1)  // -1: the default, no limit
+              throw InputError(fmt::format("--max-scenes must be >= 0, got {}", o->max_scenes));
+            if (o->repeat_every < 0)
+              throw InputError(fmt::format("--repeat-every must be >= 0 (0: never), got {}", o->repeat_every));
+            // A folder that is not there drew no mesh and said "0 shipped meshes".
+            for (const auto& m : o->meshes)
+              if (std::error_code ec; !std::filesystem::is_directory(m, ec))
+                throw InputError(fmt::format("--meshes {}: not a folder", m));
+            // The seed of one scene, as a failure prints it (0x...): "abc" was an internal error.
+            std::uint64_t scene_seed = 0;
+            if (!o->scene.empty()) {
+              std::size_t used = 0;
+              try {
+                scene_seed = std::stoull(o->scene, &used, 0);
+              } catch (const std::exception&) {
+                used = 0;
+              }
+              if (used == 0 || used != o->scene.size())
+                throw InputError(fmt::format("--scene {}: expected a scene's seed as a failure prints it, e.g. 0x71c1...", o->scene));
+            }
             stability::StressOptions so;
             so.seconds = o->seconds;
             so.threads = o->threads;
@@ -61,7 +84,7 @@ Command add_stress_command(CLI::App& app) {
               std::fflush(stdout);
             };
             if (!o->scene.empty()) {
-              const auto s = stability::run_stress_scene(std::stoull(o->scene, nullptr, 0), 0, so);
+              const auto s = stability::run_stress_scene(scene_seed, 0, so);
               fmt::print("{}\n{}: {} steps, hash {:016x}, {:.2f} s, energy peak {:.3f} of {} x{}{}\n", s.description, s.status,
                          s.steps, s.hash, s.wall_s, s.energy_peak, stability::kBoundFactor,
                          s.adaptive ? fmt::format(", {} splits, {} merges, {} undone, mass to {:.2g}", s.splits, s.merges, s.undone, s.mass_error)

@@ -29,4 +29,9 @@ void add_view_options(CLI::App* sub, std::string& up, std::optional<double>& azi
 void set_view(std::optional<double>& azimuth_out, std::optional<double>& elevation_out, std::optional<double> azimuth,
               std::optional<double> elevation);
 
+// Refuses an output path that is the input file (`pliant mesh cube.msh -o cube.msh` replaced the
+// mesh by VTU data under its old name; render, by a PNG): InputError naming `option`
+// (cmd_render.cpp).
+void refuse_overwriting_input(const std::string& input, const std::string& output, const char* option);
+
 }  // namespace pliant::cli

@@ -4,6 +4,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <thread>
 #include <cstdio>
 #include <fmt/format.h>
@@ -24,11 +25,25 @@ World make_world(const SceneDef& scene, const RunOptions& options) {
   if (options.threads) wd.threads = *options.threads;
   if (options.precision) wd.precision = *options.precision;
   if (options.schedule) wd.schedule = *options.schedule;
-  World world(wd);
-  for (const BodyDef& b : scene.bodies) world.add_body(b);
-  for (const ProbeDef& p : scene.probes) world.add_probe(p);
-  for (const ToolDef& t : scene.tools) world.add_tool(t);
-  return world;
+  // What World refuses names the body, probe or tool and its field; from a scene file, the error
+  // also says which file and which entry of it (bodies[0], probes[1], ...), as the reader's do.
+  const auto in_scene = [&](const std::string& entry, const auto& build) {
+    try {
+      build();
+    } catch (const InputError& e) {
+      if (scene.source.empty()) throw;
+      throw InputError(fmt::format("{}: {}: {}", scene.source.string(), entry, e.what()));
+    }
+  };
+  std::optional<World> world;
+  in_scene("the world", [&] { world.emplace(wd); });
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+    in_scene(fmt::format("bodies[{}]", i), [&] { world->add_body(scene.bodies[i]); });
+  for (std::size_t i = 0; i < scene.probes.size(); ++i)
+    in_scene(fmt::format("probes[{}]", i), [&] { world->add_probe(scene.probes[i]); });
+  for (std::size_t i = 0; i < scene.tools.size(); ++i)
+    in_scene(fmt::format("tools[{}]", i), [&] { world->add_tool(scene.tools[i]); });
+  return std::move(*world);
 }
 
 namespace {
@@ -246,7 +261,7 @@ void write_summary(const fs::path& path, const RunSummary& s) {
 // advanced by dt each step) no longer advances by whole steps. A count beyond int64 (1e30 s)
 // used to overflow and run 0 steps reporting "ok".
 std::int64_t steps_for(double duration, double dt) {
-  const double step_count = std::ceil(duration / dt - 1e-9);
+  const double step_count = std::max(1.0, std::ceil(duration / dt - 1e-9));
   constexpr double kMaxSteps = 9007199254740992.0;  // 2^53
   if (!(step_count <= kMaxSteps))
     throw InputError(fmt::format(
@@ -295,6 +310,11 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
     if (s.model.find(m) == std::string::npos) s.model += (s.model.empty() ? "" : ",") + m;
   }
   const std::int64_t total_steps = steps_for(duration, world.dt());
+  // A duration below one step ran 0 steps and said ok (1e-300 s), or one step far beyond it
+  // without a word (1e-5 s at a step of 5e-4 s): at least one step, and said.
+  if (duration < world.dt())
+    s.notes.push_back(fmt::format("duration {:g} s is shorter than one step ({:g} s): one step is run", duration,
+                                  world.dt()));
 
   // The file's node numbers -> the engine's (the .vtu files use the engine's), for file meshes.
   bool any_map = false;
@@ -357,9 +377,17 @@ RunSummary run_world(const SceneDef& scene, World& world, const RunOptions& opti
   // its last step ends after the wall-clock time of the frame's end. A frame ends with the first
   // step that reaches its end time (to within eps). Its busy time (waits left out) goes into
   // frame_stats, for the frame percentiles.
-  const double frame = options.realtime_frame.value_or(scene.realtime_frame);
+  double frame = options.realtime_frame.value_or(scene.realtime_frame);
   if (!(frame >= 0 && std::isfinite(frame)))
     throw InputError(fmt::format("realtime_frame must be a number of seconds >= 0, got {}", frame));
+  // A frame shorter than a step holds one step, as frames of 0 do, but its deadline fell before
+  // the step's end, and the search for the next frame's end added up frames one at a time: 1e-15 s
+  // never got past the first step's end (a hang). Such frames are every step's own.
+  if (realtime && frame > 0 && frame < world.dt()) {
+    s.notes.push_back(fmt::format("realtime_frame {:g} s is shorter than a step ({:g} s): every step is its own frame",
+                                  frame, world.dt()));
+    frame = 0;
+  }
   s.realtime_frame_s = realtime ? frame : 0.0;
   bool frame_open = false;
   double frame_end = sim0, frame_busy = 0;

@@ -662,7 +662,9 @@ ToolDef Reader::tool(const Json& j, const std::string& path, std::size_t index) 
     }
   }
   optional(j, path, "bodies", [&](const auto& v, const auto& q) {
-    for (std::size_t i = 0; i < array(v, q).size(); ++i) t.bodies.push_back(name(v[i], element(q, i)));
+    // An empty list read as no list: the tool touched every body. Left out, it does.
+    if (array(v, q).empty()) fail(q, "must name at least one body (leave it out for every body)");
+    for (std::size_t i = 0; i < v.size(); ++i) t.bodies.push_back(name(v[i], element(q, i)));
   });
   return t;
 }
