@@ -249,6 +249,23 @@ TEST(BadInput, CalibrationWithoutFixedNodesIsRefused) {
   expect_body_refused(b, {"box", "multiresolution.calibrate", "fixed"}, "calibrate without fixed nodes");
 }
 
+// An active region outside the body left it at its coarsest level without a word.
+TEST(BadInput, AnActiveRegionThatSelectsNoNodeIsRefused) {
+  BodyDef b = small_box();
+  b.multiresolution.levels = 2;
+  b.multiresolution.active.kind = ActiveDef::Kind::regions;
+  ActiveRegionDef r;
+  r.level = 1;
+  r.region.min = {5, 5, 5};
+  r.region.max = {6, 6, 6};
+  b.multiresolution.active.regions.push_back(r);
+  expect_body_refused(b, {"body 'box'", "multiresolution.active.regions[0]", "selects no node"}, "region outside");
+  b.multiresolution.active.regions[0].region.min = {0.15, -1, -1};  // the free end: accepted
+  b.multiresolution.active.regions[0].region.max = {1, 1, 1};
+  World w;
+  EXPECT_NO_THROW(w.add_body(b));
+}
+
 // An empty node list selected nothing without a word, where a box that selects nothing is an
 // error (and the scene reader refuses an empty list).
 TEST(BadInput, ANodesRegionThatListsNoNodeIsRefused) {

@@ -88,6 +88,9 @@ void refine_dangling(const TetMesh& m, const std::vector<std::uint8_t>& present,
 std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& active) {
   const int n = int(h.levels());
   std::vector<std::vector<int>> target(static_cast<std::size_t>(n));
+  // Whether each region held a node of some level: one outside the body left it at its coarsest
+  // level without a word (fixed and load regions that select nothing are errors too).
+  std::vector<std::uint8_t> selected(active.regions.size(), 0);
   for (int l = 0; l < n; ++l) {
     const TetMesh& m = h.meshes[std::size_t(l)];
     auto& t = target[std::size_t(l)];
@@ -99,7 +102,8 @@ std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& 
       case ActiveDef::Kind::regions: {
         t.assign(m.node_count(), 0);
         const double tol = 1e-9 * mesh_diagonal(m);
-        for (const ActiveRegionDef& a : active.regions) {
+        for (std::size_t r = 0; r < active.regions.size(); ++r) {
+          const ActiveRegionDef& a = active.regions[r];
           if (a.level < 0 || a.level >= n)
             throw InputError(fmt::format("multiresolution.active: level {} does not exist (levels 0 .. {})", a.level, n - 1));
           if (a.region.kind == RegionDef::Kind::nodes) {
@@ -109,16 +113,23 @@ std::vector<std::vector<int>> node_targets(const Hierarchy& h, const ActiveDef& 
                 throw InputError(fmt::format("multiresolution.active: node {} does not exist (the finest mesh has {} nodes)",
                                              i, m.node_count()));
               t[std::size_t(i)] = std::max(t[std::size_t(i)], a.level);
+              selected[r] = 1;
             }
           } else {
             for (std::size_t i = 0; i < m.node_count(); ++i)
-              if (region_holds(a.region, m.point(i), tol)) t[i] = std::max(t[i], a.level);
+              if (region_holds(a.region, m.point(i), tol)) {
+                t[i] = std::max(t[i], a.level);
+                selected[r] = 1;
+              }
           }
         }
         break;
       }
     }
   }
+  for (std::size_t r = 0; r < selected.size(); ++r)
+    if (active.kind == ActiveDef::Kind::regions && !selected[r])
+      throw InputError(fmt::format("multiresolution.active.regions[{}] selects no node of any level", r));
   // A node whose Voronoi zone reaches into a finer region is split: raise it to its children's.
   for (int l = n - 2; l >= 0; --l) {
     const LevelLinks& lk = h.links[std::size_t(l)];
