@@ -181,26 +181,26 @@ TEST(BadInput, AMeshBeyondTheDivergenceLimitIsRefused) {
   EXPECT_NO_THROW(w.add_body(b));
 }
 
+ProbeDef tip_probe(const Vec3d& point) {
+  ProbeDef p;
+  p.name = "tip";
+  p.body = "box";
+  p.point = point;
+  return p;
+}
+
 // An infinite point was accepted and the probe read NaN.
 TEST(BadInput, AProbeAtANonFinitePointIsRefused) {
   World w;
   w.add_body(small_box());
-  ProbeDef p;
-  p.name = "tip";
-  p.body = "box";
-  p.point = {INFINITY, 0.01, 0.01};
-  expect_refused([&] { w.add_probe(p); }, {"probe 'tip'", "point"}, "probe at infinity");
+  expect_refused([&] { w.add_probe(tip_probe({INFINITY, 0.01, 0.01})); }, {"probe 'tip'", "point"}, "probe at infinity");
 }
 
 // Out-of-range probe numbers threw std::out_of_range from a vector.
 TEST(BadInput, ProbeNumbersOutOfRangeAreInputErrors) {
   World w;
   w.add_body(small_box());
-  ProbeDef p;
-  p.name = "tip";
-  p.body = "box";
-  p.point = {0.2, 0.025, 0.025};
-  w.add_probe(p);
+  w.add_probe(tip_probe({0.2, 0.025, 0.025}));
   for (int id : {-1, 1, 3}) {
     expect_refused([&] { w.probe_name(id); }, {"no probe", std::to_string(id).c_str()}, "probe_name");
     expect_refused([&] { w.probe_position(id); }, {"no probe", std::to_string(id).c_str()}, "probe_position");
