@@ -232,9 +232,20 @@ PreparedStudy prepare_study(const StudyOptions& o) {
 
   for (const std::string& t : o.sweeps) {
     Sweep sw = parse_sweep(t);
-    for (const Sweep& other : s.sweeps)
-      if (other.path == sw.path)
+    // Compared as written, "bodies[00]" and "bodies[0]", or a field and its parent, were two
+    // sweeps: the later edit overwrote the earlier, whose values study.csv still reported.
+    const std::string path = canonical_sweep_path(sw.path);
+    for (const Sweep& other : s.sweeps) {
+      const std::string before = canonical_sweep_path(other.path);
+      if (before == path)
         throw InputError(fmt::format("--sweep '{}': {} is already swept by --sweep '{}'", t, sw.path, other.text));
+      const auto inside = [](const std::string& a, const std::string& b) {  // a lies inside b
+        return a.size() > b.size() && a.compare(0, b.size(), b) == 0 && (a[b.size()] == '.' || a[b.size()] == '[');
+      };
+      if (inside(path, before) || inside(before, path))
+        throw InputError(fmt::format("--sweep '{}': {} and {} (--sweep '{}') overlap: one sets part of the other", t,
+                                     sw.path, other.path, other.text));
+    }
     s.sweeps.push_back(std::move(sw));
   }
 

@@ -71,12 +71,31 @@ Sweep parse_sweep(std::string_view text) {
     const auto j = nlohmann::json::parse(v, nullptr, false);
     if (j.is_discarded())
       fail(fmt::format("value {} ({}) is not JSON; strings need double quotes, e.g. {}=\"{}\"", i + 1, v, s.path, v));
+    // Repeated as JSON, not as text: 1e6 and 1000000 gave two runs of the same scene, reported as
+    // two settings.
     std::string value(v);
-    if (std::find(s.values.begin(), s.values.end(), value) != s.values.end())
-      fail(fmt::format("value {} ({}) is repeated", i + 1, v));
+    for (std::size_t k = 0; k < s.values.size(); ++k)
+      if (nlohmann::json::parse(s.values[k]) == j)
+        fail(fmt::format("value {} ({}) is repeated (value {} is {})", i + 1, v, k + 1, s.values[k]));
     s.values.push_back(std::move(value));
   }
+  // A key beginning with '_' is a comment: sweeping it changes nothing but the label.
+  for (std::size_t k = 0; k < s.path.size(); ++k)
+    if (s.path[k] == '_' && (k == 0 || s.path[k - 1] == '.'))
+      fail(fmt::format("{} is a comment key (it begins with '_'): sweeping it changes nothing", s.path));
   return s;
+}
+
+std::string canonical_sweep_path(std::string_view path) {
+  std::string out;
+  for (std::size_t i = 0; i < path.size(); ++i) {
+    out += path[i];
+    if (path[i] != '[') continue;
+    std::size_t j = i + 1;
+    while (j + 1 < path.size() && path[j] == '0' && std::isdigit(static_cast<unsigned char>(path[j + 1]))) ++j;
+    i = j - 1;  // leading zeros of an index dropped: [00] -> [0], [007] -> [7]
+  }
+  return out;
 }
 
 std::vector<std::vector<std::string>> expand_grid(const std::vector<Sweep>& sweeps) {

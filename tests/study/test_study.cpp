@@ -61,6 +61,11 @@ TEST(Sweep, SplitsValuesOutsideStringsAndBrackets) {
   EXPECT_EQ(k.values.size(), 2u);
   EXPECT_EQ(parse_sweep("gravity[2]=-1.62").short_name(), "gravity[2]");
   EXPECT_EQ(parse_sweep("precision=\"float\"").values.size(), 1u);
+  // Values repeated as JSON (two runs of one scene, reported as two settings), and comment keys.
+  EXPECT_THAT(error_of([] { parse_sweep("bodies[0].material.young=1e6|1000000"); }), HasSubstr("value 2 (1000000) is repeated (value 1 is 1e6)"));
+  EXPECT_THAT(error_of([] { parse_sweep("_x=1|2"); }), HasSubstr("comment key"));
+  EXPECT_THAT(error_of([] { parse_sweep("bodies[0]._note=1|2"); }), HasSubstr("comment key"));
+  EXPECT_EQ(canonical_sweep_path("bodies[00].prescribed[010].keyframes[0]"), "bodies[0].prescribed[10].keyframes[0]");
 }
 
 TEST(Sweep, BadSyntaxIsAnInputErrorNamingTheSweep) {
@@ -349,6 +354,14 @@ TEST(Study, BadOverridesAndReferencesFailBeforeAnyRun) {
   EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("with poisson=0.7: "));
   o.sweeps = {"bodies[0].model=\"linear\"", "bodies[0].model=\"stvk\""};
   EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("bodies[0].model is already swept"));
+  // The same field written another way, and a field with its parent: the later edit overwrote the
+  // earlier, whose values study.csv still reported.
+  o.sweeps = {"bodies[0].model=\"linear\"", "bodies[00].model=\"stvk\""};
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("bodies[00].model is already swept"));
+  o.sweeps = {"bodies[0].material={\"young\": 1e6}|{\"young\": 2e6}", "bodies[0].material.young=3e6|4e6"};
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("overlap: one sets part of the other"));
+  o.sweeps = {"bodies[0].material.young=3e6|4e6", "bodies[0].material={\"young\": 1e6}|{\"young\": 2e6}"};
+  EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("overlap: one sets part of the other"));
   o.sweeps = {"bodies[0].model=\"linear\""};
   o.reference = "1.5";
   o.scene = kValidation / "cantilever_gravity.json";

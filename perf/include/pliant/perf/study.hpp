@@ -39,6 +39,9 @@ struct Sweep {
 // Throws InputError naming the sweep ("--sweep 'x': ...") when it is malformed: no `=`, empty
 // path, an empty value, a value that is not JSON, a repeated value.
 Sweep parse_sweep(std::string_view text);
+// A sweep's path as the scene edit reads it, for comparing two sweeps: indices without leading
+// zeros ("bodies[00].model" -> "bodies[0].model").
+std::string canonical_sweep_path(std::string_view path);
 
 // The grid of runs: the cartesian product of the sweeps, the last sweep varying fastest. Each point
 // is one override "PATH=VALUE" per sweep. No sweep: one point with no override.
