@@ -411,6 +411,9 @@ TEST(SceneParse, BadJsonGivesLineAndColumn) {
   const std::string end = error_of("{\"bodies\": [\n");
   EXPECT_NE(end.find("t.json:2:1: invalid JSON"), std::string::npos) << end;
   EXPECT_NE(error_of("{\n \"duration\": 1e400}").find("t.json:2:14: invalid JSON"), std::string::npos);
+  // A NUL byte ended what was read: what came after it was ignored without a word.
+  const std::string nul = error_of(std::string("{\"duration\": 1, \"bodies\": [{\"mesh\": {\"box\": {}}}]}\n\0garbage", 59));
+  EXPECT_NE(nul.find("t.json:2:1: a NUL byte"), std::string::npos) << nul;
 }
 
 TEST(SceneParse, RelativePathsResolvedAgainstBaseDir) {

@@ -137,6 +137,9 @@ std::string strip_prefix(std::string_view what) {
 }  // namespace
 
 Json parse_json_text(std::string_view text, const std::string& source) {
+  // The parser stopped at a NUL byte and took the text before it as the whole document.
+  if (const auto nul = text.find('\0'); nul != std::string_view::npos)
+    throw InputError(fmt::format("{}:{}: a NUL byte: a scene is a JSON text file", source, line_column(text, nul)));
   try {
     return Json::parse(text.begin(), text.end(), DuplicateKeyCheck(source));
   } catch (const nlohmann::json::parse_error& e) {
