@@ -43,6 +43,11 @@ std::vector<std::size_t> parse_counts(const std::string& text, const std::string
     if (part.empty() || used != part.size() || v < 4 || v > 100'000'000)
       throw InputError(fmt::format("{}: expected counts from 4 to 1e8 separated by commas, like 30,130,550; got \"{}\"",
                                    option, text));
+    // As the scene reader's multiresolution.faces: coarse to fine (10,5 made a "coarser" level
+    // finer than the one after it).
+    if (!out.empty() && std::size_t(v) <= out.back())
+      throw InputError(fmt::format("{}: the counts must grow from coarse to fine: {} after {} in \"{}\"", option, v,
+                                   out.back(), text));
     out.push_back(std::size_t(v));
     i = j + 1;
   }

@@ -43,6 +43,10 @@ if [ "$(md5sum < "$work/cube.vtu")" = "$before" ]; then ok "the input mesh is un
 check mesh_file_and_implicit 2 "give a file .* or --implicit sphere, not both" -- "$pliant" mesh "$work/cube.vtu" --implicit sphere \
   --cell-size 0.1 -o "$work/x.vtu"
 
+# info and mesh took --faces counts that shrink (a "coarser" level finer than the next); the scene
+# reader refuses them.
+check faces_must_grow 2 "--faces: the counts must grow from coarse to fine: 5 after 10" -- "$pliant" info "$work/cube.vtu" --faces 10,5
+
 # stress: a seed that is not a number was an internal error (exit 1); a missing mesh folder ran
 # with 0 meshes; negative counts meant "no limit"; an infinite time ran for ever.
 check stress_bad_seed 2 "--scene abc: expected a scene's seed" -- "$pliant" stress --scene abc
