@@ -240,6 +240,14 @@ TEST(BadInput, APrescribedMotionWithoutKeyframesIsRefused) {
   expect_body_refused(b, {"box", "prescribed[0].keyframes", "at least one"}, "no keyframes");
 }
 
+// Face counts are for surfaces: a box's coarser levels are boxes; they were ignored.
+TEST(BadInput, FaceCountsOnABoxAreRefused) {
+  BodyDef b = small_box();
+  b.multiresolution.levels = 2;
+  b.multiresolution.faces = {100};
+  expect_body_refused(b, {"box", "multiresolution.faces", "box"}, "faces on a box");
+}
+
 // calibrate needs fixed nodes (the weight's deflection against them); without, it did nothing.
 TEST(BadInput, CalibrationWithoutFixedNodesIsRefused) {
   BodyDef b = small_box();

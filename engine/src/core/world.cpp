@@ -110,6 +110,10 @@ void check_body_def(const BodyDef& def) {
       throw InputError(field(fmt::format("multiresolution.active \"adaptive\" needs at least 2 levels, got {}", mr.levels)));
     check_enum(a.adapt.measure, 2, field("multiresolution.adapt.measure"));
   }
+  // (A box's coarser levels are boxes of cells / ratio^k: face counts were ignored without a word.)
+  if (!mr.faces.empty() && def.mesh.kind == MeshSourceDef::Kind::box)
+    throw InputError(field("multiresolution.faces is for surfaces and meshes; a box's coarser levels are boxes of "
+                           "cells / ratio per level (leave faces out)"));
   if (mr.calibrate && mr.levels > 1 && def.fixed.empty() && def.prescribed.empty())
     throw InputError(field("multiresolution.calibrate needs fixed nodes (it matches each level's deflection under its own "
                            "weight against them), and the body has no fixed or prescribed region"));
