@@ -240,6 +240,24 @@ TEST(BadInput, APrescribedMotionWithoutKeyframesIsRefused) {
   expect_body_refused(b, {"box", "prescribed[0].keyframes", "at least one"}, "no keyframes");
 }
 
+// A node in two motions followed the last one listed without a word.
+TEST(BadInput, TwoMotionsMovingOneNodeDifferentlyAreRefused) {
+  BodyDef b = small_box();
+  PrescribedMotionDef m;
+  m.region.kind = RegionDef::Kind::sphere;
+  m.region.center = {0.2, 0.025, 0.025};
+  m.region.radius = 0.02;
+  m.keyframes = {{0.0, {0, 0, 0}}, {0.1, {0, 0, 0.01}}};
+  b.prescribed = {m, m};
+  b.prescribed[1].region.radius = 0.04;  // overlaps the first
+  {
+    World w;  // the same keyframes twice say one thing
+    EXPECT_NO_THROW(w.add_body(b));
+  }
+  b.prescribed[1].keyframes[1].offset = {0, 0, -0.01};
+  expect_body_refused(b, {"box", "prescribed[0] and prescribed[1] both move node", "one motion"}, "two motions");
+}
+
 // Face counts are for surfaces: a box's coarser levels are boxes; they were ignored.
 TEST(BadInput, FaceCountsOnABoxAreRefused) {
   BodyDef b = small_box();

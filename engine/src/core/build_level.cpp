@@ -269,6 +269,25 @@ Level<T> build_level(const TetMesh& mesh, const Vec3d& origin, const BodyDef& de
       for (int k = 0; k < 3; ++k) L.x[k][n] = L.X[k][n] + T(o[k]);
     motions.push_back(std::move(m));
   }
+  // A node in two motions followed the one listed last, without a word: refused where they move it
+  // differently (the same keyframes twice say one thing).
+  if (motions.size() > 1) {
+    const auto same = [](const std::vector<KeyframeDef>& a, const std::vector<KeyframeDef>& b) {
+      return std::equal(a.begin(), a.end(), b.begin(), b.end(),
+                        [](const KeyframeDef& x, const KeyframeDef& y) { return x.time == y.time && x.offset == y.offset; });
+    };
+    std::vector<std::int32_t> mover(nn, -1);
+    for (std::size_t i = 0; i < motions.size(); ++i)
+      for (auto n : motions[i].nodes[0]) {
+        const std::int32_t j = mover[std::size_t(n)];
+        if (j >= 0 && !same(def.prescribed[std::size_t(j)].keyframes, def.prescribed[i].keyframes))
+          throw InputError(fmt::format("body '{}': prescribed[{}] and prescribed[{}] both move node {} (at [{}, {}, {}] m), "
+                                       "along different keyframes; a node can follow one motion only",
+                                       def.name, j, i, n, mesh.points[3 * std::size_t(n)],
+                                       mesh.points[3 * std::size_t(n) + 1], mesh.points[3 * std::size_t(n) + 2]));
+        mover[std::size_t(n)] = std::int32_t(i);
+      }
+  }
   if (!def.loads.empty()) {
     for (auto& e : L.external) e.assign(nn, T(0));
     for (std::size_t i = 0; i < def.loads.size(); ++i) {
