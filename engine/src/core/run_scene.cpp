@@ -266,7 +266,8 @@ std::int64_t steps_for(double duration, double dt) {
   if (!(step_count <= kMaxSteps))
     throw InputError(fmt::format(
         "duration {:g} s needs {:.3g} steps of {:.4g} s; at most 2^53 = {:.4g} steps can be run (the simulated time, "
-        "a double, stops advancing by whole steps beyond that): give a shorter duration",
+        "a double, stops advancing by whole steps beyond that): give a shorter duration, or check what sets the "
+        "step (time_step.dt or courant, the materials' stiffness and density, the smallest tet)",
         duration, step_count, dt, kMaxSteps));
   return std::int64_t(step_count);
 }
