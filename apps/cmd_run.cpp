@@ -312,11 +312,14 @@ Command add_run_command(CLI::App& app) {
   run->add_option("SCENE", o->scene, "Scene file (JSON, see docs/scene-format.md)")->required();
   run->add_option("--out,-o", o->out, "Output folder")->capture_default_str();
   run->add_option("--threads", o->threads, "Worker threads (overrides the scene; 0 = all cores)");
-  run->add_option("--precision", o->precision, "float or double (overrides the scene)");
-  run->add_option("--duration", o->duration, "Simulated seconds (overrides the scene)");
+  // An empty value ('--precision ""') read as the option not given.
+  const auto not_empty = [](const std::string& v) { return v.empty() ? std::string("an empty value") : std::string(); };
+  run->add_option("--precision", o->precision, "float or double (overrides the scene)")->check(not_empty);
+  run->add_option("--duration", o->duration, "Simulated seconds (overrides the scene)")->check(not_empty);
   run->add_option("--schedule", o->schedule,
                   "How multiresolution levels share the ticks: staggered (coarse work in slices, every tick costs "
-                  "about the same; the default) or naive (every coarse level on the same tick)");
+                  "about the same; the default) or naive (every coarse level on the same tick)")
+      ->check(not_empty);
   run->add_flag("--realtime", o->realtime,
                 "Simulated time follows the wall clock: steps wait for their time, and the report says how many ended late "
                 "and how far simulated time lagged (also \"realtime\": true in the scene)");

@@ -27,6 +27,10 @@ else fail "one step for a duration below a step: $(json_num "$work/short/summary
 # An --out that is a file failed after the world was built, as a bare filesystem error.
 : > "$work/afile"
 check out_is_a_file 2 "--out .*afile: exists and is not a folder" -- "$pliant" run "$work/good.json" --out "$work/afile"
+# Empty option values read as options not given.
+check empty_precision 2 "--precision: an empty value" -- "$pliant" run "$work/good.json" --out "$work/o" --precision ''
+check empty_duration 2 "--duration: an empty value" -- "$pliant" run "$work/good.json" --out "$work/o" --duration ''
+check empty_schedule 2 "--schedule: an empty value" -- "$pliant" run "$work/good.json" --out "$work/o" --schedule ''
 # A tool listing no body touched every body.
 scene tool_no_body "{\"duration\": 0.002, \"bodies\": [{\"name\": \"b\", $box, $fixed}], \"tools\": [{\"shape\": {\"sphere\": {\"radius\": 0.01}}, \"path\": {\"keyframes\": [{\"time\": 0, \"position\": [0.1, 0.025, 0.2]}]}, \"bodies\": []}]}"
 check tool_lists_no_body 2 "tools\[0\]\.bodies.*at least one body" -- "$pliant" run "$work/tool_no_body.json" --out "$work/o"
