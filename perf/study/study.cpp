@@ -255,6 +255,12 @@ PreparedStudy prepare_study(const StudyOptions& o) {
   const std::optional<double> value = as_number(o.reference);
   bool probes_against_finest = false;
   if (!o.measure.empty()) {
+    // (A value that was neither a number nor "finest" was dropped here, and the error said that no
+    // reference had been given.)
+    if (!o.reference.empty() && !finest && !value)
+      throw InputError(fmt::format("--reference {}: with --measure, give a number or finest (a reference file holds "
+                                   "its own quantities, and is not used with --measure)",
+                                   o.reference));
     ref.quantities.push_back(quantity_for_measure(parse_measure(o.measure, "--measure")));
     ref.source = "--measure";
   } else if (!o.reference.empty() && !finest && !value) {

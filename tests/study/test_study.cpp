@@ -366,6 +366,13 @@ TEST(Study, BadOverridesAndReferencesFailBeforeAnyRun) {
   o.reference = "1.5";
   o.scene = kValidation / "cantilever_gravity.json";
   EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr("defines 2 quantities"));
+  // A reference that is neither a finite number nor "finest" beside --measure was dropped, and the
+  // error said that none was given.
+  o.measure = R"({"kind": "probe_final", "probe": "tip", "axis": "z"})";
+  for (const char* bad : {"bogus", "nan", "inf"}) {
+    o.reference = bad;
+    EXPECT_THAT(error_of([&] { run_study(o); }), HasSubstr(std::string("--reference ") + bad + ": with --measure, give a number or finest"));
+  }
   o.reference = "";
   o.measure = R"({"kind": "probe_final", "probe": "nope", "axis": "z"})";
   o.reference = "finest";
