@@ -10,6 +10,8 @@
 #include <cmath>
 #include <functional>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "pliant/error.hpp"
 #include "pliant/world.hpp"
@@ -181,6 +183,16 @@ TEST(BadInput, AMeshBeyondTheDivergenceLimitIsRefused) {
   EXPECT_NO_THROW(w.add_body(b));
 }
 
+// A motion of the nodes within 2 cm of the box's free end, with the given keyframes.
+PrescribedMotionDef end_motion(std::vector<KeyframeDef> keyframes) {
+  PrescribedMotionDef m;
+  m.region.kind = RegionDef::Kind::sphere;
+  m.region.center = {0.2, 0.025, 0.025};
+  m.region.radius = 0.02;
+  m.keyframes = std::move(keyframes);
+  return m;
+}
+
 ProbeDef tip_probe(const Vec3d& point) {
   ProbeDef p;
   p.name = "tip";
@@ -232,22 +244,14 @@ TEST(BadInput, AnObstacleNormalOfHugeComponentsIsStillItsDirection) {
 // scene reader say "at least one".
 TEST(BadInput, APrescribedMotionWithoutKeyframesIsRefused) {
   BodyDef b = small_box();
-  PrescribedMotionDef m;
-  m.region.kind = RegionDef::Kind::sphere;
-  m.region.center = {0.2, 0.025, 0.025};
-  m.region.radius = 0.02;
-  b.prescribed.push_back(m);
+  b.prescribed.push_back(end_motion({}));
   expect_body_refused(b, {"box", "prescribed[0].keyframes", "at least one"}, "no keyframes");
 }
 
 // A node in two motions followed the last one listed without a word.
 TEST(BadInput, TwoMotionsMovingOneNodeDifferentlyAreRefused) {
   BodyDef b = small_box();
-  PrescribedMotionDef m;
-  m.region.kind = RegionDef::Kind::sphere;
-  m.region.center = {0.2, 0.025, 0.025};
-  m.region.radius = 0.02;
-  m.keyframes = {{0.0, {0, 0, 0}}, {0.1, {0, 0, 0.01}}};
+  const PrescribedMotionDef m = end_motion({{0.0, {0, 0, 0}}, {0.1, {0, 0, 0.01}}});
   b.prescribed = {m, m};
   b.prescribed[1].region.radius = 0.04;  // overlaps the first
   {
@@ -334,12 +338,7 @@ TEST(BadInput, MeshAndNodeErrorsNameTheBody) {
   expect_refused([&] { w.node_position(0, 100000); }, {"body 'box'", "level 0", "100000"}, "node_position");
   expect_refused([&] { w.node_rest_position(0, 100000); }, {"body 'box'", "level 0", "100000"}, "node_rest_position");
   BodyDef pushed = small_box("pushed");
-  PrescribedMotionDef m;
-  m.region.kind = RegionDef::Kind::sphere;
-  m.region.center = {0.2, 0.025, 0.025};
-  m.region.radius = 0.02;
-  m.keyframes = {{0.0, {0, 0, 0}}};
-  pushed.prescribed.push_back(m);
+  pushed.prescribed.push_back(end_motion({{0.0, {0, 0, 0}}}));
   const BodyId p = w.add_body(pushed);
   expect_refused([&] { w.set_motion_offset(p, 0, {0, INFINITY, 0}); }, {"body 'pushed'", "motion 0", "inf"},
                  "set_motion_offset");
