@@ -64,12 +64,14 @@ void check_obstacles(const std::vector<ObstacleDef>& obstacles) {
   }
 }
 
-// An enum's value among its enumerators [0, count): a host that casts a number into one (a
-// scene file cannot) gets an error naming the field, not a switch that matches no case.
+// An enum's value among its enumerators, 0 .. `last` (each enum of defs.hpp counts from 0 without
+// gaps): a host that casts a number into one (a scene file cannot) gets an error naming the field,
+// not a switch that matches no case. The call names the last enumerator rather than a count, so
+// that it says which list it means.
 template <class E>
-void check_enum(E value, int count, const std::string& field) {
-  const auto v = static_cast<long long>(value);
-  if (v < 0 || v >= count) throw InputError(fmt::format("{}: {} is not one of its {} values", field, v, count));
+void check_enum(E value, E last, const std::string& field) {
+  const auto v = static_cast<long long>(value), n = static_cast<long long>(last) + 1;
+  if (v < 0 || v >= n) throw InputError(fmt::format("{}: {} is not one of its {} values", field, v, n));
 }
 
 // What add_body can check of a BodyDef before any mesh is built: the fields a scene file could not
@@ -79,11 +81,11 @@ void check_enum(E value, int count, const std::string& field) {
 // prescribed motion, and nodes to calibrate against.
 void check_body_def(const BodyDef& def) {
   const auto field = [&](const std::string& f) { return fmt::format("body '{}': {}", def.name, f); };
-  check_enum(def.model, 4, field("model"));
-  check_enum(def.mesh.kind, 4, field("mesh.kind"));
+  check_enum(def.model, ForceModel::springs, field("model"));
+  check_enum(def.mesh.kind, MeshSourceDef::Kind::implicit, field("mesh.kind"));
   // (An empty node list selected nothing without a word, where an empty box is an error.)
   const auto region = [&](const RegionDef& r, const std::string& where) {
-    check_enum(r.kind, 3, field(where + ".kind"));
+    check_enum(r.kind, RegionDef::Kind::nodes, field(where + ".kind"));
     if (r.kind == RegionDef::Kind::nodes && r.nodes.empty())
       throw InputError(field(where + " lists no node (a nodes region must list at least one)"));
   };
@@ -98,7 +100,7 @@ void check_body_def(const BodyDef& def) {
   if (mr.levels < 1 || mr.levels > kMaxLevels)
     throw InputError(field(fmt::format("multiresolution.levels must be in 1 .. {}, got {}", kMaxLevels, mr.levels)));
   const ActiveDef& a = mr.active;
-  check_enum(a.kind, 5, field("multiresolution.active.kind"));
+  check_enum(a.kind, ActiveDef::Kind::adaptive, field("multiresolution.active.kind"));
   if (a.kind == ActiveDef::Kind::level && (a.level < 0 || a.level >= mr.levels))
     throw InputError(field(fmt::format("multiresolution.active.level must be in 0 (coarsest) .. {} (finest), got {}",
                                        mr.levels - 1, a.level)));
@@ -108,7 +110,7 @@ void check_body_def(const BodyDef& def) {
   if (a.kind == ActiveDef::Kind::adaptive) {
     if (mr.levels < 2)
       throw InputError(field(fmt::format("multiresolution.active \"adaptive\" needs at least 2 levels, got {}", mr.levels)));
-    check_enum(a.adapt.measure, 2, field("multiresolution.adapt.measure"));
+    check_enum(a.adapt.measure, AdaptDef::Measure::absolute, field("multiresolution.adapt.measure"));
   }
   // (A box's coarser levels are boxes of cells / ratio^k: face counts were ignored without a word.)
   if (!mr.faces.empty() && def.mesh.kind == MeshSourceDef::Kind::box)
@@ -337,9 +339,9 @@ World::World(const WorldDef& def) {
     if (!std::isfinite(def.gravity[k]))
       throw InputError(fmt::format("gravity must be 3 finite numbers (m/s^2), got [{}, {}, {}]", def.gravity[0],
                                    def.gravity[1], def.gravity[2]));
-  check_enum(def.precision, 2, "precision");
-  check_enum(def.schedule, 2, "schedule");
-  check_enum(def.packed_corners, 3, "packed_corners");
+  check_enum(def.precision, Precision::float64, "precision");
+  check_enum(def.schedule, Schedule::naive, "schedule");
+  check_enum(def.packed_corners, PackedCorners::off, "packed_corners");
   if (def.threads < 0) throw InputError(fmt::format("threads must be >= 0 (0 = all cores), got {}", def.threads));
   check_obstacles(def.obstacles);
   impl_ = std::make_unique<Impl>(def);
@@ -584,7 +586,7 @@ ToolId World::add_tool(const ToolDef& in) {
   ToolDef def = in;
   const std::string who = fmt::format("tool '{}'", def.name);
   const ToolShapeDef& sh = def.shape;
-  check_enum(sh.kind, 2, who + ": shape.kind");
+  check_enum(sh.kind, ToolShapeDef::Kind::capsule, who + ": shape.kind");
   if (!std::isfinite(sh.radius) || !(sh.radius > 0))
     throw InputError(fmt::format("{}: shape radius must be a positive length (m), got {}", who, sh.radius));
   if (sh.kind == ToolShapeDef::Kind::capsule && (!std::isfinite(sh.length) || !(sh.length > 0)))
