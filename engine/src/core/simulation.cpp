@@ -991,6 +991,12 @@ void stepped_mask(const Level<T>& L, std::vector<std::uint8_t>& mask) {
 }
 }  // namespace
 
+// Only the simulated nodes' masses, positions and velocities are kept (ghosts where their sources
+// are): change_energy_added reads a node's saved values only where it was not inactive, and the
+// corners of the tets stepped before are such nodes. The arrays keep their size between changes
+// (never shrink; an inactive node's entries hold whatever an earlier change left): on a bar of
+// 196 608 fine tets stepping 14 000 of them, copying every node of the finest level took
+// 390-780 us a change.
 template <class T>
 void Simulation<T>::save_change_energy(const SimBody<T>& body) {
   auto& before = change_energy_.before;
@@ -1001,15 +1007,30 @@ void Simulation<T>::save_change_energy(const SimBody<T>& body) {
     b.saved = L.stepped_count > 0;  // else every node inactive (body_energy)
     if (!b.saved) continue;
     b.state.assign(L.state.begin(), L.state.begin() + std::ptrdiff_t(L.node_count));
-    b.mass.assign(L.mass.begin(), L.mass.end());
-    current_state(body, L, b.now);
+    if (b.mass.size() < L.node_count) b.mass.resize(L.node_count);
+    for (int k = 0; k < 3; ++k) {
+      if (b.now.x[k].size() < L.node_count) b.now.x[k].resize(L.node_count);
+      if (b.now.v[k].size() < L.node_count) b.now.v[k].resize(L.node_count);
+    }
+    for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (L.state[n] == kNodeInactive) continue;
+      b.mass[n] = L.mass[n];
+      for (int k = 0; k < 3; ++k) {
+        b.now.x[k][n] = L.x[k][n];
+        b.now.v[k][n] = L.v[k][n];
+      }
+    }
+    write_ghosts_now(body, L, b.now.x, b.now.v);
     stepped_mask(L, b.stepped);
   }
 }
 
 template <class T>
-typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const SimBody<T>& body) {
+typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<T>& body) {
   ChangeEnergyScratch& ce = change_energy_;
+  // The state after is the levels' own arrays with every ghost where its sources are now (as the
+  // step places them after a change anyway): no copy of a level's nodes.
+  place_ghosts(body);
   double e_before = 0, e_after = 0;  // J, over what changed, each in a fixed order
   for (std::size_t l = 0; l < body.levels.size(); ++l) {
     const Level<T>& L = body.levels[l];
@@ -1017,24 +1038,24 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const Si
     const bool on = L.stepped_count > 0;
     if (!b.saved && !on) continue;  // idle before and after: inactive nodes, no tet
     if (on) {
-      current_state(body, L, ce.after);
       stepped_mask(L, ce.stepped_after);
     } else {
       ce.stepped_after.assign(L.tet_count, 0);
     }
     // Nodes whose contribution may differ: another state, or (simulated) another mass, position
-    // or velocity, to the bit.
+    // or velocity, to the bit. (b's values are read only for a node that was not inactive.)
     ce.dirty.clear();
     for (std::size_t n = 0; n < L.node_count; ++n) {
       const std::uint8_t was = b.saved ? b.state[n] : std::uint8_t(kNodeInactive), now = L.state[n];
       if (was == kNodeInactive && now == kNodeInactive) continue;
       bool differs = was != now || !on || !(L.mass[n] == b.mass[n]);  // (!on: no state after to compare)
       for (int k = 0; k < 3 && !differs; ++k)
-        differs = !(ce.after.x[k][n] == b.now.x[k][n]) || !(ce.after.v[k][n] == b.now.v[k][n]);
+        differs = !(L.x[k][n] == b.now.x[k][n]) || !(L.v[k][n] == b.now.v[k][n]);
       if (differs) ce.dirty.push_back(std::int32_t(n));
     }
     // Tets: those stepped before or after around a dirty node, and those whose stepping changed.
-    ce.tet_mark.assign(L.tet_count, 0);
+    // (tet_mark: zero between calls, its marks cleared below.)
+    if (ce.tet_mark.size() < L.tet_count) ce.tet_mark.resize(L.tet_count, 0);
     ce.tets.clear();
     auto was_stepped = [&](std::size_t t) { return b.saved && b.stepped[t]; };
     auto add_tet = [&](std::size_t t) {
@@ -1065,14 +1086,15 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const Si
     double* out = ce.energy.data();
     ElementContext<T> ec = element_context(L);
     const EnergyPass<T> pass = energy_kernel<T>(L.model);
-    auto elastic = [&](const CurrentState<T>& state, bool after, double& sum) {
+    for (std::int32_t t : ce.tets) ce.tet_mark[std::size_t(t)] = 0;
+    auto elastic = [&](const AlignedVector<T> (&x)[3], const AlignedVector<T> (&v)[3], bool after, double& sum) {
       ce.phase_tets.clear();
       for (std::int32_t t : ce.tets)
         if (after ? bool(ce.stepped_after[std::size_t(t)]) : was_stepped(std::size_t(t))) ce.phase_tets.push_back(t);
       if (ce.phase_tets.empty()) return;
       for (int k = 0; k < 3; ++k) {
-        ec.x[k] = state.x[k].data();
-        ec.v[k] = state.v[k].data();
+        ec.x[k] = x[k].data();
+        ec.v[k] = v[k].data();
       }
       const std::int32_t* ids = ce.phase_tets.data();
       const std::size_t n = ce.phase_tets.size();
@@ -1083,8 +1105,8 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(const Si
       }
       for (std::size_t i = 0; i < n; ++i) sum += out[std::size_t(ids[i])];
     };
-    if (b.saved) elastic(b.now, false, e_before);
-    if (on) elastic(ce.after, true, e_after);
+    if (b.saved) elastic(b.now.x, b.now.v, false, e_before);
+    if (on) elastic(L.x, L.v, true, e_after);
     // Their nodes' kinetic energy (free nodes: 1/2 m v^2, as body_energy counts it).
     for (std::int32_t i : ce.dirty) {
       const auto n = std::size_t(i);

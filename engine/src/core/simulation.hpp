@@ -344,7 +344,7 @@ class Simulation {
   };
   void place_ghosts(SimBody<T>& body);  // every ghost where its sources are now (after a change)
   void save_change_energy(const SimBody<T>& body);
-  ChangeEnergy change_energy_added(const SimBody<T>& body);
+  ChangeEnergy change_energy_added(SimBody<T>& body);  // places every ghost (place_ghosts) first
   // A change of an adaptive body that merged is undone (undo_change: applied again without its
   // merges) when the energy it adds, less what take_energy can take, is more than this share of the
   // body's energy before it. The merges that made random adaptive scenes unbounded added 39% to
@@ -373,12 +373,11 @@ class Simulation {
     bool saved = false;                // the level stepped a tet (else all its nodes were inactive)
     std::vector<std::uint8_t> state;   // per node
     std::vector<std::uint8_t> stepped; // per tet
-    AlignedVector<T> mass;             // per node (kg)
-    CurrentState<T> now;               // positions (m), velocities (m/s), ghosts where their sources were
+    AlignedVector<T> mass;             // per node (kg); simulated nodes' only (save_change_energy)
+    CurrentState<T> now;               // positions (m), velocities (m/s), ghosts where their sources were; the same
   };
   struct ChangeEnergyScratch {
     std::vector<ChangeEnergyLevel> before;
-    CurrentState<T> after;
     std::vector<std::uint8_t> stepped_after, tet_mark;
     std::vector<std::int32_t> dirty, tets, phase_tets;
     std::vector<double> energy;  // per tet of a level, written for the listed tets only
