@@ -592,5 +592,68 @@ TEST(ApplyChanges, TheMeasureOnTwoThreadsDecidesAsOnOne) {
   EXPECT_GT(changes, 0);
 }
 
+// adapt_body's `finest` (the finest level's stepped tets as its force pass lists them) gives the
+// peak strain that the level's own arrays give, to the bit, whatever the list's order: here the
+// stepped tets in reverse. The finest level is stretched 3 % along the bar, so that its tets hold
+// the body's peak strain, and its nodes moved by a pseudo-random 0.5 % of its cells, so that one
+// tet holds it (a list that dropped half its tets, or read them shifted by one, passed without).
+TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
+  const BodyDef def = bar({16, 4, 4}, 2, 2);
+  Adaptive by_tet(def), by_list(def);
+  for (Adaptive* a : {&by_tet, &by_list})
+    a->body.adapt = make_adaptive_state(std::shared_ptr<const Hierarchy>(&a->h, [](const Hierarchy*) {}),
+                                        def.multiresolution.active, a->body);
+  const double cell = def.mesh.max[0] / def.mesh.cells[0];  // m, the finest level's
+  auto bend = [&](Adaptive& a, double c) {
+    for (std::size_t l = 0; l < a.body.levels.size(); ++l) {
+      auto& L = a.body.levels[l];
+      for (std::size_t i = 0; i < L.node_count; ++i) {
+        const double d = (L.X[0][i] - c) / (0.125 * def.mesh.max[0]);
+        for (int k = 0; k < 3; ++k) L.x[k][i] = L.X[k][i];
+        L.x[1][i] += 0.01 * std::exp(-d * d);
+        if (l + 1 == a.body.levels.size()) {
+          L.x[0][i] *= 1.03;
+          for (int k = 0; k < 3; ++k) L.x[k][i] += 0.005 * cell * std::sin(1e3 * double(i) + 7.0 * k + c);
+        }
+      }
+    }
+  };
+  std::vector<std::int32_t> list;
+  AlignedVector<std::int32_t> tet[4];
+  AlignedVector<double> grad[9];
+  int rounds_with_list = 0;
+  for (int round = 0; round < 4; ++round) {
+    const double c = (0.3 + 0.15 * round) * def.mesh.max[0], t = 0.01 * round;
+    bend(by_tet, c);
+    bend(by_list, c);
+    const Level<double>& F = by_list.body.levels.back();
+    list.clear();
+    for (const Range& r : F.stepped_runs)
+      for (std::size_t e = r.begin; e < r.end; ++e) list.push_back(std::int32_t(e));
+    std::reverse(list.begin(), list.end());
+    ListedRest<double> finest;
+    for (int a = 0; a < 4; ++a) {
+      tet[a].resize(list.size());
+      for (std::size_t i = 0; i < list.size(); ++i) tet[a][i] = F.tet[a][std::size_t(list[i])];
+      finest.tet[a] = tet[a].data();
+    }
+    for (int q = 0; q < 9; ++q) {
+      grad[q].resize(list.size());
+      for (std::size_t i = 0; i < list.size(); ++i) grad[q][i] = F.grad[q][std::size_t(list[i])];
+      finest.grad[q] = grad[q].data();
+    }
+    finest.count = list.size();
+    rounds_with_list += !list.empty();
+    const bool a = adapt_body(by_tet.body, t);
+    const bool b = adapt_body(by_list.body, t, {}, {}, nullptr, &finest);
+    ASSERT_EQ(a, b) << round;
+    const double pa = by_tet.body.adapt->peak_strain, pb = by_list.body.adapt->peak_strain;
+    EXPECT_GT(pa, 0.0);
+    EXPECT_EQ(std::memcmp(&pa, &pb, sizeof(double)), 0) << round << ": " << pa << " against " << pb;
+    if (!list.empty()) EXPECT_GT(pa, 0.025) << round;  // the stretched finest level's strain, the peak
+  }
+  EXPECT_GE(rounds_with_list, 2);  // the first round split, the finest level stepped after it
+}
+
 }  // namespace
 }  // namespace pliant::detail

@@ -817,7 +817,14 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       write_back_rotations();
       save_change_energy(body);
     };
-    if (!adapt_body(body, t + h, near, before_change, &exec)) {
+    // The finest level's stepped tets as its force pass reads them, when it steps from a list.
+    ListedRest<T> finest;
+    if (const LevelJobState<T>* js = job_of(body, body.levels.back()); js && !js->stepped.empty()) {
+      for (int a = 0; a < 4; ++a) finest.tet[a] = js->listed_tet[a].data();
+      for (int q = 0; q < 9; ++q) finest.grad[q] = js->listed_grad[q].data();
+      finest.count = js->stepped.size();
+    }
+    if (!adapt_body(body, t + h, near, before_change, &exec, &finest)) {
       clock_check();
       continue;
     }

@@ -189,7 +189,7 @@ bool apply_targets(SimBody<T>& body, double t, bool save = false);
 
 template <class T>
 bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, const std::function<void()>& before_change,
-                Executor* exec) {
+                Executor* exec, const ListedRest<T>* finest) {
   AdaptiveState& st = *body.adapt;
   // World::force_level acts at once, and so does a tool pressing a triangle it cannot push (not
   // within the change interval: AdaptiveState::decision_due).
@@ -241,15 +241,21 @@ bool adapt_body(SimBody<T>& body, double t, const std::vector<NearShape>& near, 
     if (F.size() < L.tet_count) F.resize(L.tet_count);
     auto& ids = sc.ids;
     ids.clear();
-    for (const Range& run : L.stepped_runs)
-      for (std::size_t e = run.begin; e < run.end; ++e) ids.push_back(std::int32_t(e));
-    const std::size_t chunks = (ids.size() + kChunk - 1) / kChunk;
-    sc.chunk_peak.assign(chunks, 0.0);
     // F and the squared strains in vector lanes (kernels: the same bits as one tet at a time).
     StrainMeasureContext<T> smc;
-    for (int a = 0; a < 4; ++a) smc.tet[a] = L.tet[a].data();
-    for (int q = 0; q < 9; ++q) smc.grad[q] = L.grad[q].data();
     for (int k = 0; k < 3; ++k) smc.x[k] = xl[k].data();
+    if (l + 1 == levels && finest && finest->count == L.stepped_count) {  // list positions (adapt_body's `finest`)
+      for (std::size_t i = 0; i < finest->count; ++i) ids.push_back(std::int32_t(i));
+      for (int a = 0; a < 4; ++a) smc.tet[a] = finest->tet[a];
+      for (int q = 0; q < 9; ++q) smc.grad[q] = finest->grad[q];
+    } else {
+      for (const Range& run : L.stepped_runs)
+        for (std::size_t e = run.begin; e < run.end; ++e) ids.push_back(std::int32_t(e));
+      for (int a = 0; a < 4; ++a) smc.tet[a] = L.tet[a].data();
+      for (int q = 0; q < 9; ++q) smc.grad[q] = L.grad[q].data();
+    }
+    const std::size_t chunks = (ids.size() + kChunk - 1) / kChunk;
+    sc.chunk_peak.assign(chunks, 0.0);
     auto measure_chunks = [&](Range r) {
       for (std::size_t c = r.begin; c < r.end; ++c)
         sc.chunk_peak[c] = deformation_gradients_listed(smc, ids.data(), Range{c * kChunk, std::min(ids.size(), (c + 1) * kChunk)}, F.data());
@@ -725,7 +731,9 @@ std::vector<std::array<std::int32_t, 4>> face_neighbours(const TetMesh& mesh) {
 
 template bool undo_change<float>(SimBody<float>&, double);
 template bool undo_change<double>(SimBody<double>&, double);
-template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&, const std::function<void()>&, Executor*);
-template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&, const std::function<void()>&, Executor*);
+template bool adapt_body<float>(SimBody<float>&, double, const std::vector<NearShape>&, const std::function<void()>&, Executor*,
+                                const ListedRest<float>*);
+template bool adapt_body<double>(SimBody<double>&, double, const std::vector<NearShape>&, const std::function<void()>&,
+                                 Executor*, const ListedRest<double>*);
 
 }  // namespace pliant::detail
