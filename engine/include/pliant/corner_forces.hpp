@@ -55,9 +55,13 @@ class CornerForceArrays {
   }
 
   // Every array n values long, all `value` (N).
+  // Regrown (a listed level's block, reused by the next prepare with a list a few tets longer), the
+  // block takes an eighth more than it needs: otherwise each longer list allocated it afresh, and
+  // the first touch of a new huge page (aligned.hpp) stalled a change of resolution for 6-7 ms.
   void assign(std::size_t n, T value) {
     n_ = n;
     stride_ = (n + 15) / 16 * 16;
+    if (block_.capacity() > 0 && block_.capacity() < kArrays * stride_) block_.reserve(kArrays * (stride_ + stride_ / 8));
     block_.assign(kArrays * stride_, value);
     bind();
   }

@@ -419,11 +419,15 @@ class Simulation {
   std::vector<LevelJob> jobs_;
   std::vector<LevelDue> due_;
   std::vector<LevelJobState<T>> job_state_;
+  // The job states of the prepare() before the last (and their job_of_body_): their listed arrays'
+  // memory is reused by the next prepare instead of allocated (and first touched) again.
+  std::vector<LevelJobState<T>> spare_job_state_;
+  std::vector<std::size_t> spare_of_body_;
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
   std::vector<std::int32_t> list_position_;  // prepare()'s scratch: list_gather_incidence's cursor per node
   void list_gather_incidence(const Level<T>& L, LevelJobState<T>& js);
-  static void list_rest_data(const Level<T>& L, LevelJobState<T>& js);
+  static void list_rest_data(const Level<T>& L, LevelJobState<T>& js, const LevelJobState<T>* before);
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
   // largest tick, then stay).
   std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;
