@@ -143,6 +143,11 @@ void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& j
 
 template <class T>
 void Simulation<T>::write_back_rotations() {
+  // The force passes write the listed rotations in a tick's phases, before ++tick_ (step): at the
+  // same tick_ nothing wrote them since, and prepare() makes every list from Level::rotation or
+  // from the list before (the same values).
+  if (rotations_written_tick_ == tick_) return;
+  rotations_written_tick_ = tick_;
   for (LevelJobState<T>& js : job_state_) {
     if (js.stepped.empty() || !js.ec.listed_rotation[0]) continue;
     Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
