@@ -76,18 +76,30 @@ void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js, cons
     for (int k = 0; k < 4; ++k) js.listed_rotation[k].resize(n);
   const std::size_t m = before ? before->stepped.size() : 0;
   const bool rotations_before = rotations && m > 0 && before->listed_rotation[0].size() == m;
-  std::size_t j = 0;  // before's list position: both lists ascend
-  for (std::size_t i = 0; i < n; ++i) {
+  // Runs of tets listed at consecutive positions in both lists are copied array by array (one
+  // stream each; element by element, the 18 arrays' interleaved stores took 250-400 us for the
+  // 14 000 tets above).
+  auto copy_run = [](const auto& from, auto& to, std::size_t j, std::size_t i, std::size_t len) {
+    std::copy_n(from.data() + j, len, to.data() + i);
+  };
+  std::size_t i = 0, j = 0;  // positions in the new list and in before's: both lists ascend
+  while (i < n) {
     const std::int32_t t = js.stepped[i];
     while (j < m && before->stepped[j] < t) ++j;
     if (j < m && before->stepped[j] == t) {
-      for (int a = 0; a < 4; ++a) js.listed_tet[a][i] = before->listed_tet[a][j];
-      for (int q = 0; q < 9; ++q) js.listed_grad[q][i] = before->listed_grad[q][j];
-      js.listed_volume[i] = before->listed_volume[j];
-      if (rotations_before)
-        for (int k = 0; k < 4; ++k) js.listed_rotation[k][i] = before->listed_rotation[k][j];
-      else if (rotations)
-        for (int k = 0; k < 4; ++k) js.listed_rotation[k][i] = L.rotation[k][std::size_t(t)];
+      std::size_t len = 1;
+      while (i + len < n && j + len < m && js.stepped[i + len] == before->stepped[j + len]) ++len;
+      for (int a = 0; a < 4; ++a) copy_run(before->listed_tet[a], js.listed_tet[a], j, i, len);
+      for (int q = 0; q < 9; ++q) copy_run(before->listed_grad[q], js.listed_grad[q], j, i, len);
+      copy_run(before->listed_volume, js.listed_volume, j, i, len);
+      if (rotations_before) {
+        for (int k = 0; k < 4; ++k) copy_run(before->listed_rotation[k], js.listed_rotation[k], j, i, len);
+      } else if (rotations) {
+        for (std::size_t r = i; r < i + len; ++r)
+          for (int k = 0; k < 4; ++k) js.listed_rotation[k][r] = L.rotation[k][std::size_t(js.stepped[r])];
+      }
+      i += len;
+      j += len;
       continue;
     }
     const auto e = std::size_t(t);
@@ -96,6 +108,7 @@ void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js, cons
     js.listed_volume[i] = L.volume[e];
     if (rotations)
       for (int k = 0; k < 4; ++k) js.listed_rotation[k][i] = L.rotation[k][e];
+    ++i;
   }
   for (int a = 0; a < 4; ++a) js.ec.listed_tet[a] = js.listed_tet[a].data();
   for (int q = 0; q < 9; ++q) js.ec.listed_grad[q] = js.listed_grad[q].data();
