@@ -57,7 +57,7 @@ class CornerForceArrays {
   // Every array n values long, all `value` (N).
   // Regrown (a listed level's block, reused by the next prepare with a list a few tets longer), the
   // block takes an eighth more than it needs: otherwise each longer list allocated it afresh, and
-  // the first touch of a new huge page (aligned.hpp) stalled a change of resolution for 6-7 ms.
+  // the first touch of a new huge page (aligned.hpp) stalled a change of resolution for 6-9 ms.
   void assign(std::size_t n, T value) {
     n_ = n;
     stride_ = (n + 15) / 16 * 16;

@@ -62,9 +62,10 @@ void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
 // A tet the level listed before this prepare (`before`: its job state then, or null) is copied from
 // that list, read in sequence and warm from the step; the others from the level's arrays by tet,
 // which only a prepare reads, so that a large body leaves them cold (a bar of 196 608 fine tets
-// stepping 14 000: 460-660 us a change of resolution, reading them all by tet). The same values
-// either way: the list's rest data are copies of the level's, and its rotations are what
-// write_back_rotations (the start of prepare) wrote to Level::rotation.
+// stepping 14 000, 1 thread: a prepare took 1.23-1.26 ms reading every tet by tet, 0.86-1.02 ms
+// reading the list before). The same values either way: the list's rest data are copies of the
+// level's, and its rotations are what write_back_rotations (the start of prepare) wrote to
+// Level::rotation.
 template <class T>
 void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js, const LevelJobState<T>* before) {
   const std::size_t n = js.stepped.size();
@@ -336,8 +337,8 @@ void Simulation<T>::prepare(double tick_dt) {
       }
       // The arrays of the level's job state from the prepare before that one: memory of about the
       // right size, its pages touched. Allocated afresh, the 196 608-tet bar's finest level (14 000
-      // listed tets) spent 230-450 us a change of resolution in page faults (zeroing new arrays),
-      // and once a run 6-7 ms.
+      // listed tets) spent 130-300 us a change of resolution zeroing new pages, and its corner-force
+      // block, a new huge page each time, stalled some changes 6-9 ms (CornerForceArrays::assign).
       if (std::size_t(js.body) < spare_of_body_.size()) {
         LevelJobState<T>& s = spare_job_state_[spare_of_body_[std::size_t(js.body)] + std::size_t(js.level)];
         for (int a = 0; a < 4; ++a) js.listed_tet[a] = std::move(s.listed_tet[a]);

@@ -374,7 +374,7 @@ class Simulation {
     std::vector<std::uint8_t> state;   // per node
     std::vector<std::uint8_t> stepped; // per tet
     AlignedVector<T> mass;             // per node (kg); simulated nodes' only (save_change_energy)
-    CurrentState<T> now;               // positions (m), velocities (m/s), ghosts where their sources were; the same
+    CurrentState<T> now;               // positions (m), velocities (m/s), ghosts where their sources were; as mass
   };
   struct ChangeEnergyScratch {
     std::vector<ChangeEnergyLevel> before;
@@ -423,7 +423,9 @@ class Simulation {
   std::vector<LevelDue> due_;
   std::vector<LevelJobState<T>> job_state_;
   // The job states of the prepare() before the last (and their job_of_body_): their listed arrays'
-  // memory is reused by the next prepare instead of allocated (and first touched) again.
+  // memory is reused by the next prepare instead of allocated (and first touched) again. Costs a
+  // second set of each listed level's arrays: about 260 bytes per listed tet in double (rest data,
+  // rotations, corner forces, gather entries), 3.6 MB for the 14 000 of a 196 608-tet bar's fine level.
   std::vector<LevelJobState<T>> spare_job_state_;
   std::vector<std::size_t> spare_of_body_;
   std::vector<ElementPiece<T>> pieces_;
