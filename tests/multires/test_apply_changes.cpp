@@ -650,7 +650,9 @@ TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
     const double pa = by_tet.body.adapt->peak_strain, pb = by_list.body.adapt->peak_strain;
     EXPECT_GT(pa, 0.0);
     EXPECT_EQ(std::memcmp(&pa, &pb, sizeof(double)), 0) << round << ": " << pa << " against " << pb;
-    if (!list.empty()) EXPECT_GT(pa, 0.025) << round;  // the stretched finest level's strain, the peak
+    if (!list.empty()) {
+      EXPECT_GT(pa, 0.025) << round;  // the stretched finest level's strain, the peak
+    }
   }
   EXPECT_GE(rounds_with_list, 2);  // the first round split, the finest level stepped after it
 }

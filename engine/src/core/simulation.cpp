@@ -1048,11 +1048,18 @@ double Simulation<T>::body_energy(Executor* exec, const SimBody<T>& body) const 
 }
 
 namespace {
-// mask[t] = 1 for the tets L steps (its runs), 0 for the others.
-template <class T>
-void stepped_mask(const Level<T>& L, std::vector<std::uint8_t>& mask) {
-  mask.assign(L.tet_count, 0);
-  for (const Range& r : L.stepped_runs) std::fill(mask.begin() + std::ptrdiff_t(r.begin), mask.begin() + std::ptrdiff_t(r.end), 1);
+// The 8 node states at s (of `left` nodes from there on) are all kNodeInactive.
+bool inactive8(const std::uint8_t* s, std::size_t left) {
+  if (left < 8) return false;
+  constexpr std::uint64_t kInactive8 = 0x0101010101010101ull * kNodeInactive;
+  std::uint64_t w;
+  std::memcpy(&w, s, 8);
+  return w == kInactive8;
+}
+// Tet t is in one of the runs (ascending, disjoint).
+bool in_runs(const std::vector<Range>& runs, std::size_t t) {
+  auto it = std::upper_bound(runs.begin(), runs.end(), t, [](std::size_t x, const Range& r) { return x < r.begin; });
+  return it != runs.begin() && t < std::prev(it)->end;
 }
 }  // namespace
 
@@ -1078,6 +1085,10 @@ void Simulation<T>::save_change_energy(const SimBody<T>& body) {
       if (b.now.v[k].size() < L.node_count) b.now.v[k].resize(L.node_count);
     }
     for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (n % 8 == 0 && inactive8(L.state.data() + n, L.node_count - n)) {
+        n += 7;
+        continue;
+      }
       if (L.state[n] == kNodeInactive) continue;
       b.mass[n] = L.mass[n];
       for (int k = 0; k < 3; ++k) {
@@ -1086,7 +1097,7 @@ void Simulation<T>::save_change_energy(const SimBody<T>& body) {
       }
     }
     write_ghosts_now(body, L, b.now.x, b.now.v);
-    stepped_mask(L, b.stepped);
+    b.stepped_runs = L.stepped_runs;
   }
 }
 
@@ -1102,15 +1113,19 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<
     const ChangeEnergyLevel& b = ce.before[l];
     const bool on = L.stepped_count > 0;
     if (!b.saved && !on) continue;  // idle before and after: inactive nodes, no tet
-    if (on) {
-      stepped_mask(L, ce.stepped_after);
-    } else {
-      ce.stepped_after.assign(L.tet_count, 0);
-    }
+    static const std::vector<Range> none;
+    const std::vector<Range>& runs_before = b.saved ? b.stepped_runs : none;
+    const std::vector<Range>& runs_after = on ? L.stepped_runs : none;
     // Nodes whose contribution may differ: another state, or (simulated) another mass, position
     // or velocity, to the bit. (b's values are read only for a node that was not inactive.)
+    // Eight nodes inactive before and after are passed over at once (most of a large level's).
     ce.dirty.clear();
     for (std::size_t n = 0; n < L.node_count; ++n) {
+      if (n % 8 == 0 && inactive8(L.state.data() + n, L.node_count - n) &&
+          (!b.saved || inactive8(b.state.data() + n, L.node_count - n))) {
+        n += 7;
+        continue;
+      }
       const std::uint8_t was = b.saved ? b.state[n] : std::uint8_t(kNodeInactive), now = L.state[n];
       if (was == kNodeInactive && now == kNodeInactive) continue;
       bool differs = was != now || !on || !(L.mass[n] == b.mass[n]);  // (!on: no state after to compare)
@@ -1122,27 +1137,34 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<
     // (tet_mark: zero between calls, its marks cleared below.)
     if (ce.tet_mark.size() < L.tet_count) ce.tet_mark.resize(L.tet_count, 0);
     ce.tets.clear();
-    auto was_stepped = [&](std::size_t t) { return b.saved && b.stepped[t]; };
+    auto was_stepped = [&](std::size_t t) { return in_runs(runs_before, t); };
+    auto now_stepped = [&](std::size_t t) { return in_runs(runs_after, t); };
     auto add_tet = [&](std::size_t t) {
-      if (ce.tet_mark[t] || !(was_stepped(t) || ce.stepped_after[t])) return;
+      if (ce.tet_mark[t] || !(was_stepped(t) || now_stepped(t))) return;
       ce.tet_mark[t] = 1;
       ce.tets.push_back(std::int32_t(t));
     };
     for (std::int32_t n : ce.dirty)
       for (auto e = L.incidence_offsets[std::size_t(n)]; e < L.incidence_offsets[std::size_t(n) + 1]; ++e)
         add_tet(std::size_t(L.incidence[std::size_t(e)] >> 2));  // 4 * tet + corner
-    // (Compared 8 tets at a time: the masks differ in a few places of a level's thousands of tets.)
-    const std::size_t words = b.saved ? L.tet_count / 8 : 0;
-    for (std::size_t w = 0; w < words; ++w) {
-      std::uint64_t was, now;
-      std::memcpy(&was, b.stepped.data() + 8 * w, 8);
-      std::memcpy(&now, ce.stepped_after.data() + 8 * w, 8);
-      if (was != now)
-        for (std::size_t t = 8 * w; t < 8 * w + 8; ++t)
-          if (b.stepped[t] != ce.stepped_after[t]) add_tet(t);
+    // The tets whose stepping changed: where exactly one of the two run lists covers them, found by
+    // merging their boundaries (O(runs); comparing per-tet masks read every tet of the level).
+    {
+      auto boundary = [](const std::vector<Range>& r, std::size_t k) { return k % 2 ? r[k / 2].end : r[k / 2].begin; };
+      const std::size_t na = 2 * runs_before.size(), nb = 2 * runs_after.size();
+      std::size_t ka = 0, kb = 0, from = 0;
+      bool in_a = false, in_b = false;
+      while (ka < na || kb < nb) {
+        const std::size_t pa = ka < na ? boundary(runs_before, ka) : SIZE_MAX;
+        const std::size_t pb = kb < nb ? boundary(runs_after, kb) : SIZE_MAX;
+        const std::size_t p = std::min(pa, pb);
+        if (in_a != in_b)
+          for (std::size_t t = from; t < p; ++t) add_tet(t);
+        if (pa == p) in_a = !in_a, ++ka;
+        if (pb == p) in_b = !in_b, ++kb;
+        from = p;
+      }
     }
-    for (std::size_t t = 8 * words; t < L.tet_count; ++t)
-      if (bool(was_stepped(t)) != bool(ce.stepped_after[t])) add_tet(t);
     std::sort(ce.tets.begin(), ce.tets.end());
     // Their elastic energy before (the saved positions) and after, tet by tet: the same kernels,
     // rest data and warm-start rotations (Level::rotation, written back before the change) as the
@@ -1155,7 +1177,7 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<
     auto elastic = [&](const AlignedVector<T> (&x)[3], const AlignedVector<T> (&v)[3], bool after, double& sum) {
       ce.phase_tets.clear();
       for (std::int32_t t : ce.tets)
-        if (after ? bool(ce.stepped_after[std::size_t(t)]) : was_stepped(std::size_t(t))) ce.phase_tets.push_back(t);
+        if (after ? now_stepped(std::size_t(t)) : was_stepped(std::size_t(t))) ce.phase_tets.push_back(t);
       if (ce.phase_tets.empty()) return;
       for (int k = 0; k < 3; ++k) {
         ec.x[k] = x[k].data();

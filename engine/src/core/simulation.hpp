@@ -372,13 +372,13 @@ class Simulation {
   struct ChangeEnergyLevel {
     bool saved = false;                // the level stepped a tet (else all its nodes were inactive)
     std::vector<std::uint8_t> state;   // per node
-    std::vector<std::uint8_t> stepped; // per tet
+    std::vector<Range> stepped_runs;   // Level::stepped_runs
     AlignedVector<T> mass;             // per node (kg); simulated nodes' only (save_change_energy)
     CurrentState<T> now;               // positions (m), velocities (m/s), ghosts where their sources were; as mass
   };
   struct ChangeEnergyScratch {
     std::vector<ChangeEnergyLevel> before;
-    std::vector<std::uint8_t> stepped_after, tet_mark;
+    std::vector<std::uint8_t> tet_mark;
     std::vector<std::int32_t> dirty, tets, phase_tets;
     std::vector<double> energy;  // per tet of a level, written for the listed tets only
   };
