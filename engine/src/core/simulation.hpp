@@ -328,8 +328,9 @@ class Simulation {
   void take_energy(SimBody<T>& body, double excess, const BodyMotion& motion);
   // What a change of resolution adds to a body's kinetic + elastic energy (J), measured where the
   // change acts, not over the body: save_change_energy just before the change keeps, per level
-  // that steps a tet, its nodes' states, masses and current positions and velocities (ghosts where
-  // their sources are) and which tets it steps; change_energy_added after it finds the nodes whose
+  // that steps a tet, its nodes' states, its simulated nodes' masses and current positions and
+  // velocities (ghosts where their sources are) and its stepped runs; change_energy_added after it
+  // (reading the state after in place, ghosts placed) finds the nodes whose
   // state, mass, position or velocity differ (the changed region, the ghosts whose sources moved,
   // every node when a renormalisation rescaled the masses) and sums, before and after, the elastic
   // energy of the stepped tets around them or whose stepping changed and the kinetic energy of
