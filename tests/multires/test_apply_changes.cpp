@@ -594,9 +594,10 @@ TEST(ApplyChanges, TheMeasureOnTwoThreadsDecidesAsOnOne) {
 
 // adapt_body's `finest` (the finest level's stepped tets as its force pass lists them) gives the
 // peak strain that the level's own arrays give, to the bit, whatever the list's order: here the
-// stepped tets in reverse. The finest level is stretched 3 % along the bar, so that its tets hold
-// the body's peak strain, and its nodes moved by a pseudo-random 0.5 % of its cells, so that one
-// tet holds it (a list that dropped half its tets, or read them shifted by one, passed without).
+// stepped tets in reverse. The finest level is stretched 30 % along the bar, so that its tets hold
+// the body's peak strain (Green-Lagrange (1.3^2 - 1) / 2 = 0.345; the coarser level's bump gives at
+// most 0.11 here), and its nodes moved by a pseudo-random 0.5 % of its cells, so that one tet holds
+// it (a list that dropped half its tets, or read them shifted by one, passed without).
 TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
   const BodyDef def = bar({16, 4, 4}, 2, 2);
   Adaptive by_tet(def), by_list(def);
@@ -612,7 +613,7 @@ TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
         for (int k = 0; k < 3; ++k) L.x[k][i] = L.X[k][i];
         L.x[1][i] += 0.01 * std::exp(-d * d);
         if (l + 1 == a.body.levels.size()) {
-          L.x[0][i] *= 1.03;
+          L.x[0][i] *= 1.3;
           for (int k = 0; k < 3; ++k) L.x[k][i] += 0.005 * cell * std::sin(1e3 * double(i) + 7.0 * k + c);
         }
       }
@@ -651,7 +652,7 @@ TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
     EXPECT_GT(pa, 0.0);
     EXPECT_EQ(std::memcmp(&pa, &pb, sizeof(double)), 0) << round << ": " << pa << " against " << pb;
     if (!list.empty()) {
-      EXPECT_GT(pa, 0.025) << round;  // the stretched finest level's strain, the peak
+      EXPECT_GT(pa, 0.3) << round;  // the stretched finest level's strain is the peak
     }
   }
   EXPECT_GE(rounds_with_list, 2);  // the first round split, the finest level stepped after it
