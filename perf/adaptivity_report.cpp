@@ -3,20 +3,22 @@
 // study --sweep` does), so that what the scenes and the engine decide (thresholds, refine_near, the
 // measure) is what is measured; nothing here builds a body in code.
 //
-//   trade     adaptive against uniform on the organ (scenes/adaptive_organ.json) and the long bar
-//             (scenes/adaptive_bar.json): every uniform level, a static split, adaptive with the
+//   trade     adaptive against uniform on the organ (scenes/adaptive_organ.json), the long bar
+//             clamped at one end (scenes/adaptive_bar.json) and the same bar lying on a table
+//             (scenes/adaptive_bar_on_table.json): every uniform level, a static split, adaptive with the
 //             engine's default thresholds and with the scene's scaled; probe error against the
 //             uniform finest level (and, in the full mode, against a mesh twice as fine) and cost
 //   realtime  the organ at ~50k fine tets under a moving tool, --realtime on 2 threads, adaptive
 //             and uniform fine, with the numbers that set the limit
 //
-//   adaptivity_report [--only trade|realtime]... [--quick | --tiny] [--scenes DIR]
-//   adaptivity_report --study-sweeps organ|bar [--quick | --tiny] [--scenes DIR]
+//   adaptivity_report [--only trade|realtime]... [--case organ|bar|bar_on_table]... [--quick | --tiny] [--scenes DIR]
+//   adaptivity_report --study-sweeps organ|bar|bar_on_table [--quick | --tiny] [--scenes DIR]
 //
 // --study-sweeps prints, one per line, the --sweep arguments of the `pliant study` whose Pareto
 // plot the doc shows: the same variants, in the same order, as the rows of the trade table (its
-// column # is the study's run number). --quick: shorter runs (development); --tiny: the smallest
-// runs that still go through every path (the ctest).
+// column # is the study's run number). --case: the trade's scenes (every one when not given).
+// --quick: shorter runs (development); --tiny: the smallest runs that still go through every path
+// (the ctest).
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -41,6 +43,7 @@ using Json = nlohmann::json;
 enum class Mode { full, quick, tiny };
 Mode g_mode = Mode::full;
 fs::path g_scenes = "scenes";
+std::vector<std::string> g_cases;  // --case: the trade's scenes (all when empty)
 
 double pick(double full, double quick, double tiny) {
   return g_mode == Mode::full ? full : g_mode == Mode::quick ? quick : tiny;
@@ -49,7 +52,7 @@ double pick(double full, double quick, double tiny) {
 // ---- the scenes and their variants ------------------------------------------------------------
 
 struct SceneCase {
-  std::string key;          // organ | bar
+  std::string key;          // organ | bar | bar_on_table
   std::string file;         // in g_scenes
   std::string near, far;    // probes: next to the load, away from it
   Json split_region;        // the static split's finest region (REGION of the scene format)
@@ -61,6 +64,8 @@ std::vector<SceneCase> cases() {
       {"organ", "adaptive_organ.json", "under_tool", "right_lobe_tip",
        Json::parse(R"({"sphere": {"center": [0.03, 0, 0.04], "radius": 0.04}})"), "bodies[0].mesh.cell_size=0.005"},
       {"bar", "adaptive_bar.json", "near", "tip",
+       Json::parse(R"({"sphere": {"center": [1.2, 0.1, 0.1], "radius": 0.15}})"), "bodies[0].mesh.box.cells=[128,16,16]"},
+      {"bar_on_table", "adaptive_bar_on_table.json", "near", "far",
        Json::parse(R"({"sphere": {"center": [1.2, 0.1, 0.1], "radius": 0.15}})"), "bodies[0].mesh.box.cells=[128,16,16]"},
   };
 }
@@ -206,6 +211,7 @@ void trade() {
       finer ? "; *vs 2x finer*: against a uniform mesh twice as fine (the finest level's own error is its row)"
             : " (the quick mode skips the run twice as fine)");
   for (const SceneCase& c : cases()) {
+    if (!g_cases.empty() && std::find(g_cases.begin(), g_cases.end(), c.key) == g_cases.end()) continue;
     const std::string text = scene_text(c);
     const double duration = trade_duration(c);
     const std::string dur = fmt::format("duration={}", duration);
@@ -401,16 +407,23 @@ int main(int argc, char** argv) {
     else if (a == "--quick") g_mode = Mode::quick;
     else if (a == "--tiny") g_mode = Mode::tiny;
     else if (a == "--scenes" && i + 1 < argc) g_scenes = argv[++i];
+    else if (a == "--case" && i + 1 < argc) g_cases.push_back(argv[++i]);
     else if (a == "--study-sweeps" && i + 1 < argc) sweeps_for = argv[++i];
     else {
-      std::fprintf(stderr, "usage: adaptivity_report [--only trade|realtime]... [--quick|--tiny] [--scenes DIR]\n"
-                           "       adaptivity_report --study-sweeps organ|bar [--quick|--tiny] [--scenes DIR]\n");
+      std::fprintf(stderr, "usage: adaptivity_report [--only trade|realtime]... [--case organ|bar|bar_on_table]... [--quick|--tiny] [--scenes DIR]\n"
+                           "       adaptivity_report --study-sweeps organ|bar|bar_on_table [--quick|--tiny] [--scenes DIR]\n");
       return 2;
     }
   }
   for (const std::string& o : only)
     if (o != "trade" && o != "realtime") {
       std::fprintf(stderr, "adaptivity_report: --only %s: expected trade or realtime\n", o.c_str());
+      return 2;
+    }
+  const std::vector<SceneCase> known = cases();
+  for (const std::string& c : g_cases)
+    if (std::none_of(known.begin(), known.end(), [&](const SceneCase& k) { return k.key == c; })) {
+      std::fprintf(stderr, "adaptivity_report: --case %s: expected organ, bar or bar_on_table\n", c.c_str());
       return 2;
     }
   auto want = [&](const char* n) { return only.empty() || std::find(only.begin(), only.end(), n) != only.end(); };
@@ -423,7 +436,7 @@ int main(int argc, char** argv) {
         fmt::print("duration={}\nbodies[0].multiresolution={}\n", trade_duration(c), values);
         return 0;
       }
-      std::fprintf(stderr, "adaptivity_report: --study-sweeps %s: expected organ or bar\n", sweeps_for.c_str());
+      std::fprintf(stderr, "adaptivity_report: --study-sweeps %s: expected organ, bar or bar_on_table\n", sweeps_for.c_str());
       return 2;
     }
     fmt::print("Mode: {}.\n", g_mode == Mode::full ? "full" : g_mode == Mode::quick ? "quick (shorter runs)" : "tiny (a smoke test)");

@@ -8,7 +8,7 @@
 #
 # BUILD_DIR: a Release build with CGAL (default build). --quick: shorter runs for development (the
 # doc then says so). Every run is a shipped scene file (scenes/adaptive_organ.json,
-# scenes/adaptive_bar.json) edited by overrides, so changes to the scenes or to the engine's
+# scenes/adaptive_bar.json, scenes/adaptive_bar_on_table.json) edited by overrides, so changes to the scenes or to the engine's
 # adaptivity are what gets measured. Wall times vary with the machine and its load; tet counts,
 # splits and errors are deterministic.
 set -euo pipefail
@@ -46,11 +46,11 @@ started=$(date -u +%s)
   echo "uniform finest level), over that probe's largest displacement; cost: tets computed"
   echo "(\`--cost tet-updates\`). Points are labelled with their run number, the # of the tables above."
   echo
-  for scene in organ bar; do
+  for scene in organ bar bar_on_table; do
     mapfile -t sweeps < <("$report" "${quick[@]}" --study-sweeps $scene --scenes scenes)
     args=()
     for s in "${sweeps[@]}"; do args+=(--sweep "$s"); done
-    probe=$([[ $scene == organ ]] && echo under_tool || echo near)
+    probe=$([[ $scene == organ ]] && echo under_tool || echo near)  # the bars' probe next to the push
     "$pliant" study scenes/adaptive_$scene.json "${args[@]}" --threads 2 --quiet --reference finest --cost tet-updates \
       --measure "{\"kind\": \"probe_rms\", \"probe\": \"$probe\"}" --out "$out/study-$scene" > /dev/null
     cp "$out/study-$scene/pareto.png" "$images/pareto-$scene.png"
