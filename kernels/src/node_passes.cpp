@@ -138,7 +138,7 @@ template <class T, bool External, Entries How>
 PLIANT_SCALAR_LOOP inline void node_force(const GatherContext<T>& c, const CornerTable<T>& table, std::size_t n,
                                           T f[3]) {
   T f0 = 0, f1 = 0, f2 = 0;
-  const std::int32_t end = c.offsets[n + 1];
+  const std::int32_t end = c.ends[n];
   if constexpr (How == Entries::kOffset) {
     const T* b0 = c.corner_force[0];
     const T* b1 = c.corner_force[1];
@@ -188,7 +188,7 @@ PLIANT_SCALAR_LOOP inline void node_force_pair(const GatherContext<T>& c, std::s
   const std::int32_t* off = c.corner_offset;
   T a0 = 0, a1 = 0, a2 = 0, c0 = 0, c1 = 0, c2 = 0;
   std::int32_t e = c.offsets[n], g = c.offsets[n + 1];
-  const std::int32_t e_end = g, g_end = c.offsets[n + 2];
+  const std::int32_t e_end = c.ends[n], g_end = c.ends[n + 1];
   const std::int32_t common = std::min(e_end - e, g_end - g);
   for (std::int32_t i = 0; i < common; ++i) {
     const std::int32_t o = off[e + i], p = off[g + i];
@@ -325,14 +325,24 @@ bool encode_corner_offsets(const std::int32_t* incidence, std::size_t entries, s
   return true;
 }
 
+// The context with its entries' ends set (GatherContext::ends; CSR when null).
 template <class T>
-void gather_forces(const GatherContext<T>& c, Range r) {
+GatherContext<T> with_ends(const GatherContext<T>& c) {
+  GatherContext<T> out = c;
+  if (!out.ends) out.ends = out.offsets + 1;
+  return out;
+}
+
+template <class T>
+void gather_forces(const GatherContext<T>& context, Range r) {
+  const GatherContext<T> c = with_ends(context);
   const CornerTable<T> table(c);
   dispatch(c, table, [&](auto ext, auto how) { gather<T, decltype(ext)::value, decltype(how)::value>(c, table, r); });
 }
 
 template <class T>
-bool gather_integrate_symplectic_euler(const GatherContext<T>& g, const IntegrateContext<T>& c, Range r) {
+bool gather_integrate_symplectic_euler(const GatherContext<T>& context, const IntegrateContext<T>& c, Range r) {
+  const GatherContext<T> g = with_ends(context);
   const CornerTable<T> table(g);
   return dispatch(g, table, [&](auto ext, auto how) {
     return gather_integrate<T, decltype(ext)::value, decltype(how)::value>(g, table, c, r);

@@ -11,12 +11,15 @@
 // And the work of one change is local: the same on a bar twice as long.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
 #include <cstdio>
 #include <array>
 #include <random>
+#include <string>
+#include <vector>
 
 #include "../../engine/src/core/simulation.hpp"
 #include "../../engine/src/multires/activation.hpp"
@@ -659,4 +662,103 @@ TEST(ApplyChanges, TheFinestLevelsListGivesThePeakStrainItsArraysGive) {
 }
 
 }  // namespace
+// A listed level's list edited at each change of resolution (Simulation::edit_list: a tet no longer
+// stepped gives its position to the list's last, a new one is appended) against the list made
+// afresh from the same body (make_list, a Simulation prepared from a copy): the same tets listed,
+// each with its rest data and rotation, every node's gather entries naming the same tets and
+// corners in the same order (the order of the sums: the same bits), each offset encoded for the
+// block's stride, and the contexts pointing at the arrays. Random splits and merges of a 3-level
+// bar under gravity, with 16 ticks between them so that the rotations move.
+template <class T>
+void edited_lists_are_the_lists_made_afresh(std::uint32_t seed) {
+  const BodyDef def = bar({16, 4, 4}, 3, 2);
+  AdaptiveBody<T> a(def);
+  Executor exec(1);
+  Simulation<T> sim;
+  sim.bodies.push_back(a.body);
+  sim.gravity[2] = T(-9.81);
+  const double tick = sim.bodies[0].levels.back().stable_dt;  // s: the finest level steps every tick
+  sim.prepare(tick);
+  std::mt19937 rng(seed);
+  const int levels = int(a.h.levels());
+  double t = 0;
+  std::int64_t index = 0;
+  int edited = 0, compared = 0;
+  for (int change = 0; change < 40; ++change) {
+    std::string where;
+    for (int k = 0; k < 16; ++k, t += tick) ASSERT_TRUE(sim.step(exec, t, tick, where, index++)) << where;
+    std::vector<std::vector<std::int32_t>> before(static_cast<std::size_t>(levels));
+    for (int l = 0; l < levels; ++l) before[std::size_t(l)] = sim.job_of(sim.bodies[0], sim.bodies[0].levels[std::size_t(l)])->stepped;
+    const int moves = 1 + int(rng() % 6);
+    for (int k = 0; k < moves; ++k) {
+      const int l = int(rng() % unsigned(levels - 1));
+      const auto node = std::int32_t(rng() % a.h.meshes[std::size_t(l)].node_count());
+      const unsigned pick = rng() % 8;
+      a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : levels - 1);
+    }
+    sim.write_back_rotations();  // as before a change in Simulation::step
+    const ActivationState::Changes ch = a.as->update();
+    keep_momentum(sim.bodies[0], apply_changes(sim.bodies[0], a.ps, *a.as, ch, t));
+    sim.prepare(tick);
+    Simulation<T> fresh;
+    fresh.bodies = sim.bodies;
+    fresh.prepare(tick);
+    for (int l = 0; l < levels; ++l) {
+      SCOPED_TRACE("change " + std::to_string(change) + ", level " + std::to_string(l));
+      const Level<T>& L = sim.bodies[0].levels[std::size_t(l)];
+      const LevelJobState<T>& e = *sim.job_of(sim.bodies[0], L);
+      const LevelJobState<T>& f = *fresh.job_of(fresh.bodies[0], fresh.bodies[0].levels[std::size_t(l)]);
+      ASSERT_EQ(e.stepped.empty(), f.stepped.empty());
+      if (f.stepped.empty()) continue;
+      ++compared;
+      std::vector<std::int32_t> was = before[std::size_t(l)], now = e.stepped;
+      std::sort(was.begin(), was.end());
+      std::sort(now.begin(), now.end());
+      edited += !before[std::size_t(l)].empty() && was != now;
+      const std::size_t n = f.stepped.size();
+      ASSERT_EQ(e.stepped.size(), n);
+      ASSERT_EQ(e.list_position.size(), L.tet_count);
+      std::size_t positions = 0;
+      for (const std::int32_t p : e.list_position) positions += p >= 0;
+      EXPECT_EQ(positions, n);  // no tet left behind
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::int32_t tet = f.stepped[i];
+        const std::int32_t p = e.list_position[std::size_t(tet)];
+        ASSERT_GE(p, 0) << "tet " << tet;
+        const auto q = std::size_t(p);
+        ASSERT_EQ(e.stepped[q], tet);
+        for (int c = 0; c < 4; ++c) EXPECT_EQ(e.listed_tet[c][q], f.listed_tet[c][i]);
+        for (int g = 0; g < 9; ++g) EXPECT_EQ(std::memcmp(&e.listed_grad[g][q], &f.listed_grad[g][i], sizeof(T)), 0);
+        EXPECT_EQ(std::memcmp(&e.listed_volume[q], &f.listed_volume[i], sizeof(T)), 0);
+        for (int k = 0; k < 4; ++k) EXPECT_EQ(std::memcmp(&e.listed_rotation[k][q], &f.listed_rotation[k][i], sizeof(T)), 0);
+      }
+      const std::size_t stride = e.listed_corner_force.stride();
+      EXPECT_GE(stride, n);
+      EXPECT_EQ(e.gc.offsets, L.incidence_offsets.data());
+      EXPECT_EQ(e.gc.ends, e.gather_end.data());
+      EXPECT_EQ(e.gc.corner_stride, stride);
+      EXPECT_EQ(e.gc.corner_offset, e.gather_corner_offset.data());
+      EXPECT_EQ(e.ec.listed_tet[0], e.listed_tet[0].data());
+      EXPECT_EQ(e.ec.corner_force[0], e.listed_corner_force[0].data());
+      EXPECT_EQ(e.listed_corner_force[0].size(), n);
+      for (std::size_t v = 0; v < L.node_count; ++v) {
+        const std::int32_t from = L.incidence_offsets[v];
+        ASSERT_EQ(e.gather_end[v] - from, f.gather_end[v] - from) << "node " << v;
+        for (std::int32_t k = from; k < e.gather_end[v]; ++k) {
+          const std::int32_t ce = e.gather_incidence[std::size_t(k)], cf = f.gather_incidence[std::size_t(k)];
+          EXPECT_EQ(e.stepped[std::size_t(ce >> 2)], f.stepped[std::size_t(cf >> 2)]) << "node " << v;
+          EXPECT_EQ(ce & 3, cf & 3) << "node " << v;
+          EXPECT_EQ(std::int64_t(e.gather_corner_offset[std::size_t(k)]), 3 * std::int64_t(stride) * (ce & 3) + (ce >> 2));
+        }
+      }
+    }
+    if (::testing::Test::HasFailure()) break;
+  }
+  std::printf("%d listed levels compared, %d of them edited by a change\n", compared, edited);
+  EXPECT_GE(edited, 10);
+}
+
+TEST(ApplyChanges, EditedListsAreTheListsMadeAfreshDouble) { edited_lists_are_the_lists_made_afresh<double>(21); }
+TEST(ApplyChanges, EditedListsAreTheListsMadeAfreshFloat) { edited_lists_are_the_lists_made_afresh<float>(22); }
+
 }  // namespace pliant::detail

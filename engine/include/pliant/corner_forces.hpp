@@ -66,6 +66,23 @@ class CornerForceArrays {
     bind();
   }
 
+  // Every array n values long, keeping the values and the stride when n fits in it (true); else
+  // the block made again for n with room for an eighth more (its stride changes, every value 0:
+  // false). For a listed level whose list a change of resolution edits in place: its gather's
+  // entries are offsets that depend on the stride, so the stride must outlive most changes.
+  bool resize_keeping_stride(std::size_t n) {
+    if (n <= stride_ && !block_.empty()) {
+      n_ = n;
+      bind();
+      return true;
+    }
+    n_ = n;
+    stride_ = (n + n / 8 + 15) / 16 * 16;
+    block_.assign(kArrays * stride_, T(0));
+    bind();
+    return false;
+  }
+
   const Span& operator[](std::size_t q) const { return spans_[q]; }
   const Span* begin() const { return spans_.data(); }
   const Span* end() const { return spans_.data() + kArrays; }

@@ -57,101 +57,235 @@ void list_stepped(const Level<T>& L, std::vector<std::int32_t>& out) {
     for (std::size_t t = r.begin; t < r.end; ++t) out.push_back(std::int32_t(t));
 }
 
-// LevelJobState::listed_tet, listed_grad and listed_volume of a listed level, from its list, and
-// its element context pointed at them. O(stepped tets).
-// A tet the level listed before this prepare (`before`: its job state then, or null) is copied from
-// that list, read in sequence and warm from the step; the others from the level's arrays by tet,
-// which only a prepare reads, so that a large body leaves them cold (a bar of 196 608 fine tets
-// stepping 14 000, 1 thread: a prepare took 1.23-1.26 ms reading every tet by tet, 0.86-1.02 ms
-// reading the list before). The same values either way: the list's rest data are copies of the
-// level's, and its rotations are what write_back_rotations (the start of prepare) wrote to
-// Level::rotation.
+namespace {
+
+// The tets of the runs `a` that are not in the runs `b` (both ascending and disjoint), as runs.
+void subtract_runs(const std::vector<Range>& a, const std::vector<Range>& b, std::vector<Range>& out) {
+  out.clear();
+  std::size_t j = 0;  // the first run of b that ends after the current run of a begins
+  for (const Range& r : a) {
+    while (j < b.size() && b[j].end <= r.begin) ++j;
+    std::size_t lo = r.begin;
+    for (std::size_t k = j; lo < r.end; ++k) {
+      if (k == b.size() || b[k].begin >= r.end) {
+        out.push_back({lo, r.end});
+        break;
+      }
+      if (b[k].begin > lo) out.push_back({lo, b[k].begin});
+      lo = std::max(lo, b[k].end);
+    }
+  }
+}
+
+bool same_runs(const std::vector<Range>& a, const std::vector<Range>& b) {
+  return a.size() == b.size() &&
+         std::equal(a.begin(), a.end(), b.begin(), [](const Range& x, const Range& y) { return x.begin == y.begin && x.end == y.end; });
+}
+
+// A listed level's gather entries (LevelJobState::gather_*): node v's entries are
+// incidence[offsets[v] .. end[v]), codes 4 x (list position) + corner in the order of their tets
+// (Level::incidence's), each with its corner-force offset (encode_corner_offsets) when `fits`.
+struct ListedGather {
+  const std::int32_t* offsets;  // Level::incidence_offsets: each node's room
+  std::int32_t* end;
+  std::int32_t* incidence;
+  std::int32_t* corner_offset;  // null when the offsets would not fit in 32 bits
+  std::size_t stride;           // of the corner-force block
+  const std::int32_t* list;     // LevelJobState::stepped: a position's tet
+
+  std::int32_t offset_of(std::int32_t code) const {
+    return std::int32_t(3 * std::int64_t(stride) * (code & 3) + (code >> 2));
+  }
+  std::int32_t find(std::int32_t v, std::int32_t code) const {
+    std::int32_t e = offsets[v];
+    while (incidence[e] != code) ++e;  // present: the level's list holds its tet
+    return e;
+  }
+  void drop(std::int32_t v, std::int32_t code) {
+    const std::int32_t last = end[v] - 1;
+    for (std::int32_t e = find(v, code); e < last; ++e) {
+      incidence[e] = incidence[e + 1];
+      if (corner_offset) corner_offset[e] = corner_offset[e + 1];
+    }
+    end[v] = last;
+  }
+  void recode(std::int32_t v, std::int32_t from, std::int32_t to) {
+    const std::int32_t e = find(v, from);
+    incidence[e] = to;
+    if (corner_offset) corner_offset[e] = offset_of(to);
+  }
+  // Inserts tet t's entry (code) among node v's, in tet order (list[] holds every listed tet's).
+  void insert(std::int32_t v, std::int32_t t, std::int32_t code) {
+    std::int32_t e = offsets[v];
+    const std::int32_t stop = end[v];
+    while (e < stop && list[incidence[e] >> 2] < t) ++e;
+    for (std::int32_t k = stop; k > e; --k) {
+      incidence[k] = incidence[k - 1];
+      if (corner_offset) corner_offset[k] = corner_offset[k - 1];
+    }
+    incidence[e] = code;
+    if (corner_offset) corner_offset[e] = offset_of(code);
+    end[v] = stop + 1;
+  }
+  void encode_all(std::size_t nodes) {
+    if (!corner_offset) return;
+    for (std::size_t v = 0; v < nodes; ++v)
+      for (std::int32_t e = offsets[v]; e < end[v]; ++e) corner_offset[e] = offset_of(incidence[e]);
+  }
+};
+
+// Whether a corner-force block of this stride has 32-bit offsets for every entry (as
+// encode_corner_offsets: 3 x stride x 3 + a position below the stride).
+bool offsets_fit(std::size_t stride) { return 10 * std::int64_t(stride) <= std::int64_t(INT32_MAX); }
+
 template <class T>
-void Simulation<T>::list_rest_data(const Level<T>& L, LevelJobState<T>& js, const LevelJobState<T>* before) {
-  const std::size_t n = js.stepped.size();
-  const bool rotations = !L.rotation[0].empty();  // corotational: the warm starts in list order too
+ListedGather listed_gather(const Level<T>& L, LevelJobState<T>& js) {
+  const bool fits = offsets_fit(js.listed_corner_force.stride());
+  return {L.incidence_offsets.data(), js.gather_end.data(), js.gather_incidence.data(),
+          fits ? js.gather_corner_offset.data() : nullptr, js.listed_corner_force.stride(), js.stepped.data()};
+}
+
+template <class T>
+void resize_listed_arrays(LevelJobState<T>& js, std::size_t n, bool rotations) {
   for (int a = 0; a < 4; ++a) js.listed_tet[a].resize(n);
   for (int q = 0; q < 9; ++q) js.listed_grad[q].resize(n);
   js.listed_volume.resize(n);
   if (rotations)
     for (int k = 0; k < 4; ++k) js.listed_rotation[k].resize(n);
-  const std::size_t m = before ? before->stepped.size() : 0;
-  const bool rotations_before = rotations && m > 0 && before->listed_rotation[0].size() == m;
-  // Runs of tets listed at consecutive positions in both lists are copied array by array (one
-  // stream each; element by element, the 18 arrays' interleaved stores took 250-400 us for the
-  // 14 000 tets above).
-  auto copy_run = [](const auto& from, auto& to, std::size_t j, std::size_t i, std::size_t len) {
-    std::copy_n(from.data() + j, len, to.data() + i);
-  };
-  std::size_t i = 0, j = 0;  // positions in the new list and in before's: both lists ascend
-  while (i < n) {
-    const std::int32_t t = js.stepped[i];
-    while (j < m && before->stepped[j] < t) ++j;
-    if (j < m && before->stepped[j] == t) {
-      std::size_t len = 1;
-      while (i + len < n && j + len < m && js.stepped[i + len] == before->stepped[j + len]) ++len;
-      for (int a = 0; a < 4; ++a) copy_run(before->listed_tet[a], js.listed_tet[a], j, i, len);
-      for (int q = 0; q < 9; ++q) copy_run(before->listed_grad[q], js.listed_grad[q], j, i, len);
-      copy_run(before->listed_volume, js.listed_volume, j, i, len);
-      if (rotations_before) {
-        for (int k = 0; k < 4; ++k) copy_run(before->listed_rotation[k], js.listed_rotation[k], j, i, len);
-      } else if (rotations) {
-        for (std::size_t r = i; r < i + len; ++r)
-          for (int k = 0; k < 4; ++k) js.listed_rotation[k][r] = L.rotation[k][std::size_t(js.stepped[r])];
-      }
-      i += len;
-      j += len;
-      continue;
-    }
-    const auto e = std::size_t(t);
-    for (int a = 0; a < 4; ++a) js.listed_tet[a][i] = L.tet[a][e];
-    for (int q = 0; q < 9; ++q) js.listed_grad[q][i] = L.grad[q][e];
-    js.listed_volume[i] = L.volume[e];
-    if (rotations)
-      for (int k = 0; k < 4; ++k) js.listed_rotation[k][i] = L.rotation[k][e];
-    ++i;
+}
+
+// List position i takes tet e's rest data and rotation from the level's arrays.
+template <class T>
+void list_from_level(const Level<T>& L, LevelJobState<T>& js, std::size_t i, std::size_t e, bool rotations) {
+  for (int a = 0; a < 4; ++a) js.listed_tet[a][i] = L.tet[a][e];
+  for (int q = 0; q < 9; ++q) js.listed_grad[q][i] = L.grad[q][e];
+  js.listed_volume[i] = L.volume[e];
+  if (rotations)
+    for (int k = 0; k < 4; ++k) js.listed_rotation[k][i] = L.rotation[k][e];
+}
+
+}  // namespace
+
+// A listed level's list made afresh (its first prepare as a listed level): its stepped tets in
+// ascending order, their rest data and rotations in list order (ElementContext::listed_tet,
+// listed_grad, listed_volume, listed_rotation: the force passes and the monitor load them in
+// sequence instead of gathering them from tets scattered over the mesh), corner forces by list
+// position (zero until the level's first element pass writes them: its gather runs on the ticks it
+// steps, after that pass), and its gather entries. O(stepped tets + nodes and tets of the level),
+// in the memory of the level's last list or of its first prepare when it has one.
+template <class T>
+void Simulation<T>::make_list(const Level<T>& L, LevelJobState<T>& js) {
+  list_stepped(L, js.stepped);
+  const std::size_t n = js.stepped.size();
+  const bool rotations = !L.rotation[0].empty();  // corotational: the warm starts in list order too
+  js.listed_level = L.tet[0].data();
+  js.listed_runs = L.stepped_runs;
+  js.list_position.assign(L.tet_count, -1);
+  resize_listed_arrays(js, n, rotations);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto e = std::size_t(js.stepped[i]);
+    js.list_position[e] = std::int32_t(i);
+    list_from_level(L, js, i, e, rotations);
   }
+  // A new block with room for an eighth more tets, or the block of the level's last list, zeroed.
+  if (js.listed_corner_force.resize_keeping_stride(n))
+    for (int q = 0; q < 12; ++q) std::fill(js.listed_corner_force[std::size_t(q)].begin(), js.listed_corner_force[std::size_t(q)].end(), T(0));
+  // Each node's entries from the front of its range, its stepped tets' corners appended in list
+  // order, which ascends: the order of Level::incidence (build_level fills it in tet order).
+  js.gather_end.assign(L.incidence_offsets.begin(), L.incidence_offsets.end() - 1);
+  js.gather_incidence.resize(L.incidence.size());
+  js.gather_corner_offset.resize(L.incidence.size());
+  ListedGather g = listed_gather(L, js);
+  for (std::size_t i = 0; i < n; ++i)
+    for (int a = 0; a < 4; ++a) {
+      const std::int32_t code = std::int32_t(4 * i + std::size_t(a));
+      const std::int32_t e = g.end[js.listed_tet[a][i]]++;
+      g.incidence[e] = code;
+      if (g.corner_offset) g.corner_offset[e] = g.offset_of(code);
+    }
+}
+
+// A listed level's list after a change of resolution, edited in place from the list before it
+// (js holds that list's arrays): each tet no longer stepped gives its position to the list's last
+// tet, each newly stepped one is appended; their gather entries are dropped, recoded or inserted
+// in the ranges of their corner nodes. O(tets the change turns on or off, and their nodes'
+// entries), where making the list again read every stepped tet and node (the fine level of a bar
+// of 196 608 tets stepping 14 000: 0.6-0.7 ms a change). Every tet keeps its rest data, rotation
+// and gather entries' order, so the passes compute the same bits; only positions change.
+template <class T>
+void Simulation<T>::edit_list(const Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]) {
+  std::vector<Range>& off = scratch[0];  // tets the list holds that the level no longer steps
+  std::vector<Range>& on = scratch[1];   // tets it steps that the list does not hold
+  subtract_runs(js.listed_runs, L.stepped_runs, off);
+  subtract_runs(L.stepped_runs, js.listed_runs, on);
+  js.listed_runs = L.stepped_runs;
+  if (off.empty() && on.empty()) return;
+  const bool rotations = !L.rotation[0].empty();
+  std::size_t n = js.stepped.size();
+  std::size_t dropped = 0, added = 0;
+  for (const Range& r : off) dropped += r.size();
+  for (const Range& r : on) added += r.size();
+  // The corner-force block for the longer of the lists before and after; a new block (a longer
+  // stride) when it does not fit, every entry's offset encoded again for it.
+  const std::size_t final_n = n - dropped + added;
+  const bool kept = js.listed_corner_force.resize_keeping_stride(std::max(n, final_n));
+  ListedGather g = listed_gather(L, js);
+  if (!kept) g.encode_all(L.node_count);
+  auto& cf = js.listed_corner_force;
+  for (const Range& r : off)
+    for (std::size_t t = r.begin; t < r.end; ++t) {
+      const std::int32_t p = js.list_position[t];
+      const std::size_t last = n - 1;
+      for (int a = 0; a < 4; ++a) g.drop(js.listed_tet[a][std::size_t(p)], 4 * p + a);
+      if (std::size_t(p) != last) {  // the last tet takes position p
+        const std::int32_t moved = js.stepped[last];
+        for (int a = 0; a < 4; ++a) js.listed_tet[a][std::size_t(p)] = js.listed_tet[a][last];
+        for (int q = 0; q < 9; ++q) js.listed_grad[q][std::size_t(p)] = js.listed_grad[q][last];
+        js.listed_volume[std::size_t(p)] = js.listed_volume[last];
+        if (rotations)
+          for (int k = 0; k < 4; ++k) js.listed_rotation[k][std::size_t(p)] = js.listed_rotation[k][last];
+        for (int q = 0; q < 12; ++q) cf[std::size_t(q)][std::size_t(p)] = cf[std::size_t(q)][last];
+        for (int a = 0; a < 4; ++a) g.recode(js.listed_tet[a][std::size_t(p)], std::int32_t(4 * last) + a, 4 * p + a);
+        js.stepped[std::size_t(p)] = moved;
+        js.list_position[std::size_t(moved)] = p;
+      }
+      js.list_position[t] = -1;
+      js.stepped.pop_back();
+      --n;
+    }
+  resize_listed_arrays(js, final_n, rotations);
+  js.stepped.resize(final_n);
+  g.list = js.stepped.data();
+  for (const Range& r : on)
+    for (std::size_t t = r.begin; t < r.end; ++t) {
+      const std::size_t p = n++;
+      js.stepped[p] = std::int32_t(t);
+      js.list_position[t] = std::int32_t(p);
+      list_from_level(L, js, p, t, rotations);
+      for (int q = 0; q < 12; ++q) cf[std::size_t(q)][p] = T(0);
+      for (int a = 0; a < 4; ++a) g.insert(L.tet[a][t], std::int32_t(t), std::int32_t(4 * p) + a);
+    }
+  cf.resize_keeping_stride(final_n);
+}
+
+// Points a listed level's element and gather contexts at its list's arrays.
+template <class T>
+void Simulation<T>::bind_list(const Level<T>& L, LevelJobState<T>& js) {
+  const bool rotations = !L.rotation[0].empty();
   for (int a = 0; a < 4; ++a) js.ec.listed_tet[a] = js.listed_tet[a].data();
   for (int q = 0; q < 9; ++q) js.ec.listed_grad[q] = js.listed_grad[q].data();
   js.ec.listed_volume = js.listed_volume.data();
   if (rotations)
     for (int k = 0; k < 4; ++k) js.ec.listed_rotation[k] = js.listed_rotation[k].data();
-  // The corner forces by list position, zero until the level's first element pass writes them
-  // (its gather runs on the ticks it steps, after that pass).
-  js.listed_corner_force.assign(n, T(0));
   for (int q = 0; q < 12; ++q) {
-    js.ec.corner_force[q] = js.listed_corner_force[q].data();
-    js.gc.corner_force[q] = js.listed_corner_force[q].data();
+    js.ec.corner_force[q] = js.listed_corner_force[std::size_t(q)].data();
+    js.gc.corner_force[q] = js.listed_corner_force[std::size_t(q)].data();
   }
   js.ec.listed_corner_forces = true;
-}
-
-// LevelJobState::gather_offsets and gather_incidence of a listed level: the entries of its stepped
-// tets, per node, each coded 4 x (the tet's list position) + corner, as its corner forces are
-// stored (list_rest_data). Counted from the list, whose tets ascend (run after run), so that each
-// node's entries come in the order of L.incidence (build_level fills it in tet order): the stepped
-// tets' entries of it, summed in the same order by the gather. Every corner of a stepped tet is in a
-// node piece (none is inactive). O(stepped tets + nodes of the level); scanning the incidences of
-// every node of the pieces instead took 21 us a level of the 50k-tet organ at each change.
-template <class T>
-void Simulation<T>::list_gather_incidence(const Level<T>& L, LevelJobState<T>& js) {
-  auto& off = js.gather_offsets;
-  off.assign(L.node_count + 1, 0);
-  const std::size_t n = js.stepped.size();
-  for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < 4; ++a) ++off[std::size_t(js.listed_tet[a][i]) + 1];  // (list_rest_data: L.tet in list order)
-  for (std::size_t v = 0; v < L.node_count; ++v) off[v + 1] += off[v];
-  auto& out = js.gather_incidence;
-  out.resize(std::size_t(off.back()));
-  auto& cursor = list_position_;
-  cursor.assign(off.begin(), off.end() - 1);
-  for (std::size_t i = 0; i < n; ++i)
-    for (int a = 0; a < 4; ++a) out[std::size_t(cursor[std::size_t(js.listed_tet[a][i])]++)] = std::int32_t(4 * i + std::size_t(a));
-  js.gc.offsets = js.gather_offsets.data();
-  js.gc.incidence = out.data();
-  js.gather_corner_offset.resize(out.size());
-  const bool fits = encode_corner_offsets(out.data(), out.size(), js.listed_corner_force.stride(), js.gather_corner_offset.data());
-  js.gc.corner_offset = fits ? js.gather_corner_offset.data() : nullptr;
+  js.gc.offsets = L.incidence_offsets.data();
+  js.gc.ends = js.gather_end.data();
+  js.gc.incidence = js.gather_incidence.data();
+  js.gc.corner_offset = offsets_fit(js.listed_corner_force.stride()) ? js.gather_corner_offset.data() : nullptr;
   js.gc.corner_stride = js.listed_corner_force.stride();
 }
 
@@ -234,12 +368,14 @@ void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
   region_sized_ = false;
   ghosts_stale_ = true;
-  write_back_rotations();  // the lists are made again below, from Level::rotation
-  // The corner forces of the listed levels, kept by list position: a prepare between two steps in
-  // the middle of a level's window (World::add_body, when the tick stays) must keep the slices the
-  // level has computed since the window began, which its gather sums at the window's end. (A change
-  // of resolution prepares at a tick where every window of its body ended: nothing to keep.)
-  // The job states before (their lists' rest data are taken over too: list_rest_data).
+  // The lists take their new tets' rotations from Level::rotation (edit_list, make_list), where a
+  // tet that leaves a list must have left its own.
+  write_back_rotations();
+  // The job states before: a listed level's list is taken over and edited (edit_list). Its corner
+  // forces stay where they are: a prepare between two steps in the middle of a level's window
+  // (World::add_body, when the tick stays) must keep the slices the level has computed since the
+  // window began, which its gather sums at the window's end. (A change of resolution prepares at a
+  // tick where every window of its body ended: nothing to keep.)
   std::vector<LevelJobState<T>> previous = std::move(job_state_);
   std::vector<std::size_t> previous_of_body = std::move(job_of_body_);
   jobs_.clear();
@@ -272,9 +408,8 @@ void Simulation<T>::prepare(double tick_dt) {
       js.run_start.assign(1, 0);
       for (const Range& r : L.stepped_runs) js.run_start.push_back(js.run_start.back() + r.size());
       js.stepped.clear();
-      if (steps_by_list(L)) {
+      if (steps_by_list(L)) {  // its list: made (or edited from the one before) below
         js.listed_pass = listed_force_kernel<T>(L.model);
-        list_stepped(L, js.stepped);
         jobs_.back().align = kTickAlign;  // whole batches of lanes per tick (LevelJob::align)
       }
       pieces += L.stepped_runs.size() + 1;
@@ -329,42 +464,49 @@ void Simulation<T>::prepare(double tick_dt) {
       n = last + 1;
     }
     js.end_node_piece = node_pieces_.size();
-    if (!js.stepped.empty()) {  // a listed level (its job state at its final address now)
-      LevelJobState<T>* before = nullptr;  // the level's job state before, if it was listed
-      if (std::size_t(js.body) < previous_of_body.size()) {
-        LevelJobState<T>& p = previous[previous_of_body[std::size_t(js.body)] + std::size_t(js.level)];
-        if (!p.stepped.empty()) before = &p;
+    // The level's list arrays before (the same level: its identity checked), listed or not, taken
+    // over: a list still listed is edited (edit_list), not made again, and a level listed again
+    // makes its list in the memory it had (the gather entries take 8 bytes per corner of every
+    // tet of the level: for a 196 608-tet level, 6 MB whose first touch, at the change that
+    // listed it, took that change from 11-13 to 30 ms).
+    bool was_listed = false;
+    if (std::size_t(js.body) < previous_of_body.size()) {
+      LevelJobState<T>& p = previous[previous_of_body[std::size_t(js.body)] + std::size_t(js.level)];
+      if (p.listed_level == L.tet[0].data() && p.list_position.size() == L.tet_count) {
+        was_listed = !p.stepped.empty();
+        js.stepped = std::move(p.stepped);
+        js.list_position = std::move(p.list_position);
+        js.listed_runs = std::move(p.listed_runs);
+        js.listed_level = p.listed_level;
+        for (int a = 0; a < 4; ++a) js.listed_tet[a] = std::move(p.listed_tet[a]);
+        for (int q = 0; q < 9; ++q) js.listed_grad[q] = std::move(p.listed_grad[q]);
+        js.listed_volume = std::move(p.listed_volume);
+        for (int k = 0; k < 4; ++k) js.listed_rotation[k] = std::move(p.listed_rotation[k]);
+        js.listed_corner_force = std::move(p.listed_corner_force);
+        js.gather_end = std::move(p.gather_end);
+        js.gather_incidence = std::move(p.gather_incidence);
+        js.gather_corner_offset = std::move(p.gather_corner_offset);
       }
-      // The arrays of the level's job state from the prepare before that one: memory of about the
-      // right size, its pages touched. Allocated afresh, the 196 608-tet bar's finest level (14 000
-      // listed tets) spent 130-300 us a change of resolution zeroing new pages, and its corner-force
-      // block, a new huge page each time, stalled some changes 6-9 ms (CornerForceArrays::assign).
-      if (std::size_t(js.body) < spare_of_body_.size()) {
-        LevelJobState<T>& s = spare_job_state_[spare_of_body_[std::size_t(js.body)] + std::size_t(js.level)];
-        for (int a = 0; a < 4; ++a) js.listed_tet[a] = std::move(s.listed_tet[a]);
-        for (int q = 0; q < 9; ++q) js.listed_grad[q] = std::move(s.listed_grad[q]);
-        js.listed_volume = std::move(s.listed_volume);
-        for (int k = 0; k < 4; ++k) js.listed_rotation[k] = std::move(s.listed_rotation[k]);
-        js.listed_corner_force = std::move(s.listed_corner_force);
-        js.gather_offsets = std::move(s.gather_offsets);
-        js.gather_incidence = std::move(s.gather_incidence);
-        js.gather_corner_offset = std::move(s.gather_corner_offset);
+    }
+    if (js.listed_pass) {  // a listed level (its job state at its final address now)
+      if (was_listed)
+        edit_list(L, js, list_edit_scratch_);
+      else
+        make_list(L, js);
+      bind_list(L, js);
+    } else {
+      js.stepped.clear();  // by runs (its arrays kept for a later list)
+      // A level of several: the memory of its gather entries taken and touched now, at load,
+      // rather than by the change of resolution that first lists it.
+      if (!js.listed_level && bodies[std::size_t(js.body)].levels.size() > 1) {
+        js.listed_level = L.tet[0].data();
+        js.list_position.assign(L.tet_count, -1);
+        js.gather_end.assign(L.incidence_offsets.begin(), L.incidence_offsets.end() - 1);
+        js.gather_incidence.assign(L.incidence.size(), 0);
+        js.gather_corner_offset.assign(L.incidence.size(), 0);
       }
-      list_rest_data(L, js, before);
-      if (before && before->stepped == js.stepped) {
-        // The same list: its forces so far (swapped: the block given to js above goes on to the
-        // next prepare with `before`).
-        std::swap(js.listed_corner_force, before->listed_corner_force);
-        for (int q = 0; q < 12; ++q) {
-          js.ec.corner_force[q] = js.listed_corner_force[q].data();
-          js.gc.corner_force[q] = js.listed_corner_force[q].data();
-        }
-      }
-      list_gather_incidence(L, js);
     }
   }
-  spare_job_state_ = std::move(previous);
-  spare_of_body_ = std::move(previous_of_body);
   due_.assign(jobs_.size(), LevelDue{});
   pieces_.clear();
   pieces_.reserve(pieces);  // element pieces keep their address for the segments pointing at them
@@ -425,7 +567,10 @@ std::size_t Simulation<T>::gather_entries(int body, int level) const {
   std::size_t n = 0;
   for (std::size_t q = js.first_node_piece; q < js.end_node_piece; ++q) {
     const NodePiece<T>& p = node_pieces_[q];
-    n += std::size_t(js.gc.offsets[p.first + p.count] - js.gc.offsets[p.first]);
+    if (js.gc.ends)  // a listed level's ranges have room after their entries
+      for (std::size_t v = p.first; v < p.first + p.count; ++v) n += std::size_t(js.gc.ends[v] - js.gc.offsets[v]);
+    else
+      n += std::size_t(js.gc.offsets[p.first + p.count] - js.gc.offsets[p.first]);
   }
   return n;
 }
@@ -443,10 +588,9 @@ std::array<std::array<double, 3>, 4> Simulation<T>::corner_forces(int body, int 
   std::size_t at = tet;
   if (steps_listed(body, level)) {
     const LevelJobState<T>& js = job_state_[job_of_body_[std::size_t(body)] + std::size_t(level)];
-    const auto it = std::lower_bound(js.stepped.begin(), js.stepped.end(), std::int32_t(tet));  // ascending: by runs
-    if (it == js.stepped.end() || std::size_t(*it) != tet) return {};
+    if (tet >= js.list_position.size() || js.list_position[tet] < 0) return {};
     from = &js.listed_corner_force;
-    at = std::size_t(it - js.stepped.begin());
+    at = std::size_t(js.list_position[tet]);
   }
   std::array<std::array<double, 3>, 4> f{};
   for (int c = 0; c < 4; ++c)
@@ -1008,10 +1152,17 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
     list_stepped(L, energy_ids);
     const std::int32_t* ids = energy_ids.data();
     const std::size_t n = energy_ids.size();
-    // The job's list (the same, unless a change of resolution is being measured before prepare()):
-    // its rotations in list order are the current ones; else Level::rotation is (written back).
-    if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[0] && js->stepped == energy_ids)
-      for (int k = 0; k < 4; ++k) ec.listed_rotation[k] = js->ec.listed_rotation[k];
+    // The job's list holds the same tets unless a change of resolution is being measured before
+    // prepare(): its rotations are the current ones, taken here in energy_ids' order (the job's list
+    // is in the order its edits left it); else Level::rotation is (written back).
+    if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[0] && same_runs(js->listed_runs, L.stepped_runs)) {
+      for (int k = 0; k < 4; ++k) {
+        energy_rotation[k].resize(n);
+        for (std::size_t i = 0; i < n; ++i)
+          energy_rotation[k][i] = js->listed_rotation[k][std::size_t(js->list_position[std::size_t(ids[i])])];
+        ec.listed_rotation[k] = energy_rotation[k].data();
+      }
+    }
     if (exec)
       exec->parallel_for(n, pass_grain(n, kTetGrain), [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
     else

@@ -143,9 +143,16 @@ struct LevelJobState {
   std::vector<std::size_t> run_start;  // stepped-tet index at which each run begins (+ the total)
   // A level whose stepped tets lie in short runs (a multiresolution level stepping a region of its
   // mesh) steps them from a list instead, in full vector lanes: stepped[i] is its i-th stepped tet
-  // (Simulation::prepare decides; empty: by runs).
+  // (Simulation::prepare decides; empty: by runs). Made in ascending order; a change of resolution
+  // then edits it in place (Simulation::edit_list): a tet no longer stepped takes the list's last
+  // tet into its position, a newly stepped one is appended. list_position[t] is tet t's position
+  // (-1: not listed); listed_runs are the level's stepped runs the list holds (Level::stepped_runs
+  // when it was made or last edited); listed_level the level's identity (its Level::tet[0] data).
   ListedElementPass<T> listed_pass = nullptr;
   std::vector<std::int32_t> stepped;
+  AlignedVector<std::int32_t> list_position;
+  std::vector<Range> listed_runs;
+  const void* listed_level = nullptr;
   PackContext<T> pack;  // positions into x_packed, before the element pass (ec.xp set each tick)
   // Whether the element passes of the level's current window read the packed copy: decided at the
   // window's first slice, which packs it (Simulation::step). Every slice of a window reads the same
@@ -164,13 +171,15 @@ struct LevelJobState {
   // stepping 86 tets near a tool gathered all its 10k nodes every tick: as much time as its tets).
   std::size_t first_node_piece = 0, end_node_piece = 0;
   // A listed level's gather reads its own incidence: per node, the entries of Level::incidence
-  // whose tet is stepped, in the same order, coded by list position (listed_corner_force); made
-  // by prepare() for the nodes of its pieces, empty ranges elsewhere. The entries it drops are
+  // whose tet is stepped, in the same order, coded by list position (listed_corner_force). They fill
+  // the front of the node's range of Level::incidence (gc.offsets is Level::incidence_offsets,
+  // gc.ends = gather_end: the room after them takes the entries a change of resolution adds, so
+  // that it edits the ranges of the nodes it reaches, not the level's). The entries it drops are
   // tets that are not stepped, whose corner forces are zero (apply_changes.cpp): a sum that starts
   // at +0 is not changed by adding a zero, so the forces are the same bits, and the gather reads a
   // stepped region's entries, not every tet around its nodes (a middle level stepping 342 of its
   // 5 906 tets read about 4x as many).
-  AlignedVector<std::int32_t> gather_offsets, gather_incidence;
+  AlignedVector<std::int32_t> gather_end, gather_incidence;
   AlignedVector<std::int32_t> gather_corner_offset;  // gather_incidence as offsets (encode_corner_offsets)
   // A listed level's rest data in list order (ElementContext::listed_tet, listed_grad,
   // listed_volume: ec points at them): its element passes and monitor load them instead of
@@ -369,6 +378,7 @@ class Simulation {
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
   double period_tick_ = 0;              // s: prepare()'s tick_dt (a change of resolution prepares again with it)
   mutable std::vector<std::int32_t> energy_ids;  // add_elastic_energy: a listed level's stepped tets (grows, stays)
+  mutable AlignedVector<T> energy_rotation[4];    // add_elastic_energy: a listed level's rotations in energy_ids order
   // save_change_energy's record of the state before a change, and change_energy_added's scratch.
   struct ChangeEnergyLevel {
     bool saved = false;                // the level stepped a tet (else all its nodes were inactive)
@@ -423,17 +433,12 @@ class Simulation {
   std::vector<LevelJob> jobs_;
   std::vector<LevelDue> due_;
   std::vector<LevelJobState<T>> job_state_;
-  // The job states of the prepare() before the last (and their job_of_body_): their listed arrays'
-  // memory is reused by the next prepare instead of allocated (and first touched) again. Costs a
-  // second set of each listed level's arrays: about 260 bytes per listed tet in double (rest data,
-  // rotations, corner forces, gather entries), 3.6 MB for the 14 000 of a 196 608-tet bar's fine level.
-  std::vector<LevelJobState<T>> spare_job_state_;
-  std::vector<std::size_t> spare_of_body_;
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
-  std::vector<std::int32_t> list_position_;  // prepare()'s scratch: list_gather_incidence's cursor per node
-  void list_gather_incidence(const Level<T>& L, LevelJobState<T>& js);
-  static void list_rest_data(const Level<T>& L, LevelJobState<T>& js, const LevelJobState<T>* before);
+  static void make_list(const Level<T>& L, LevelJobState<T>& js);
+  static void edit_list(const Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]);
+  static void bind_list(const Level<T>& L, LevelJobState<T>& js);
+  std::vector<Range> list_edit_scratch_[2];  // edit_list's: the runs a change turns off and on
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
   // largest tick, then stay).
   std::array<std::vector<Executor::Segment>, kTickPhases> tick_segments_;

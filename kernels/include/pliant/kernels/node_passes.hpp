@@ -36,6 +36,11 @@ struct GatherContext {
   // hold 4 * tet + corner, sorted, so the sum order never depends on threads.
   const std::int32_t* offsets = nullptr;
   const std::int32_t* incidence = nullptr;
+  // Optional: node n's entries end at ends[n] instead of offsets[n + 1], so that each node's range
+  // may have room left after its entries (a listed level's gather edits its entries in place at a
+  // change of resolution: their ranges are the level's whole incidence, filled from the front).
+  // Null: ends = offsets + 1 (CSR).
+  const std::int32_t* ends = nullptr;
   const T* corner_force[12] = {};
   const T* external[3] = {};  // constant nodal loads (N), or null
   T* f[3] = {};               // output: total force on each node (N)
