@@ -696,10 +696,11 @@ void edited_lists_are_the_lists_made_afresh(std::uint32_t seed) {
       const unsigned pick = rng() % 8;
       a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : levels - 1);
     }
-    sim.write_back_rotations();  // as before a change in Simulation::step
     const ActivationState::Changes ch = a.as->update();
     keep_momentum(sim.bodies[0], apply_changes(sim.bodies[0], a.ps, *a.as, ch, t));
     sim.prepare(tick);
+    // The fresh lists take every rotation from Level::rotation: the listed ones written there.
+    sim.write_back_rotations();
     Simulation<T> fresh;
     fresh.bodies = sim.bodies;
     fresh.prepare(tick);

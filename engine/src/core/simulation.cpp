@@ -206,14 +206,14 @@ void Simulation<T>::make_list(const Level<T>& L, LevelJobState<T>& js) {
 }
 
 // A listed level's list after a change of resolution, edited in place from the list before it
-// (js holds that list's arrays): each tet no longer stepped gives its position to the list's last
-// tet, each newly stepped one is appended; their gather entries are dropped, recoded or inserted
+// (js holds that list's arrays): each tet no longer stepped leaves its rotation in Level::rotation
+// and gives its position to the list's last tet, each newly stepped one is appended; their gather entries are dropped, recoded or inserted
 // in the ranges of their corner nodes. O(tets the change turns on or off, and their nodes'
 // entries), where making the list again read every stepped tet and node (the fine level of a bar
 // of 196 608 tets stepping 14 000: 0.6-0.7 ms a change). Every tet keeps its rest data, rotation
 // and gather entries' order, so the passes compute the same bits; only positions change.
 template <class T>
-void Simulation<T>::edit_list(const Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]) {
+void Simulation<T>::edit_list(Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]) {
   std::vector<Range>& off = scratch[0];  // tets the list holds that the level no longer steps
   std::vector<Range>& on = scratch[1];   // tets it steps that the list does not hold
   subtract_runs(js.listed_runs, L.stepped_runs, off);
@@ -236,6 +236,8 @@ void Simulation<T>::edit_list(const Level<T>& L, LevelJobState<T>& js, std::vect
     for (std::size_t t = r.begin; t < r.end; ++t) {
       const std::int32_t p = js.list_position[t];
       const std::size_t last = n - 1;
+      if (rotations)  // its current rotation, where the level (and a list it joins again) reads it
+        for (int k = 0; k < 4; ++k) L.rotation[k][t] = js.listed_rotation[k][std::size_t(p)];
       for (int a = 0; a < 4; ++a) g.drop(js.listed_tet[a][std::size_t(p)], 4 * p + a);
       if (std::size_t(p) != last) {  // the last tet takes position p
         const std::int32_t moved = js.stepped[last];
@@ -305,6 +307,21 @@ void Simulation<T>::write_back_rotations() {
 }
 
 template <class T>
+bool Simulation<T>::listed_rotations(const SimBody<T>& body, const Level<T>& L, const std::int32_t* ids, std::size_t n,
+                                     AlignedVector<T> (&out)[4]) const {
+  const LevelJobState<T>* js = job_of(body, L);
+  if (!js || js->stepped.empty() || !js->ec.listed_rotation[0] || js->list_position.size() != L.tet_count) return false;
+  for (int k = 0; k < 4; ++k) {
+    out[k].resize(n);
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::int32_t p = js->list_position[std::size_t(ids[i])];
+      out[k][i] = p >= 0 ? js->listed_rotation[k][std::size_t(p)] : L.rotation[k][std::size_t(ids[i])];
+    }
+  }
+  return true;
+}
+
+template <class T>
 void Simulation<T>::current_rotations(const SimBody<T>& body, const Level<T>& L, AlignedVector<T> (&out)[4]) const {
   for (int k = 0; k < 4; ++k) out[k].assign(L.rotation[k].begin(), L.rotation[k].end());
   const LevelJobState<T>* js = job_of(body, L);
@@ -368,9 +385,8 @@ void Simulation<T>::prepare(double tick_dt) {
   period_tick_ = tick_dt;
   region_sized_ = false;
   ghosts_stale_ = true;
-  // The lists take their new tets' rotations from Level::rotation (edit_list, make_list), where a
-  // tet that leaves a list must have left its own.
-  write_back_rotations();
+  // (The lists take their new tets' rotations from Level::rotation, where a tet leaves its own
+  // when it leaves a list: edit_list, and a level that stops listing, below.)
   // The job states before: a listed level's list is taken over and edited (edit_list). Its corner
   // forces stay where they are: a prepare between two steps in the middle of a level's window
   // (World::add_body, when the tick stays) must keep the slices the level has computed since the
@@ -488,14 +504,19 @@ void Simulation<T>::prepare(double tick_dt) {
         js.gather_corner_offset = std::move(p.gather_corner_offset);
       }
     }
+    Level<T>& level = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
     if (js.listed_pass) {  // a listed level (its job state at its final address now)
       if (was_listed)
-        edit_list(L, js, list_edit_scratch_);
+        edit_list(level, js, list_edit_scratch_);
       else
         make_list(L, js);
       bind_list(L, js);
     } else {
-      js.stepped.clear();  // by runs (its arrays kept for a later list)
+      // By runs: its arrays kept for a later list, its tets' rotations where the passes read them.
+      if (was_listed && !js.listed_rotation[0].empty())
+        for (int k = 0; k < 4; ++k)
+          for (std::size_t i = 0; i < js.stepped.size(); ++i) level.rotation[k][std::size_t(js.stepped[i])] = js.listed_rotation[k][i];
+      js.stepped.clear();
       // A level of several: the memory of its gather entries taken and touched now, at load,
       // rather than by the change of resolution that first lists it.
       if (!js.listed_level && bodies[std::size_t(js.body)].levels.size() > 1) {
@@ -1013,12 +1034,8 @@ bool Simulation<T>::step(Executor& exec, double t, double h, std::string& where,
       body.adapt->check_max_seconds = std::max(body.adapt->check_max_seconds, s);
     };
     // The state before is kept only where the decisions change something (most decision points
-    // change nothing). (The listed levels' rotations written back first: the energies before and
-    // after the change read them by tet.)
-    auto before_change = [&] {
-      write_back_rotations();
-      save_change_energy(body);
-    };
+    // change nothing).
+    auto before_change = [&] { save_change_energy(body); };
     // The finest level's stepped tets as its force pass reads them, when it steps from a list.
     ListedRest<T> finest;
     if (const LevelJobState<T>* js = job_of(body, body.levels.back()); js && !js->stepped.empty()) {
@@ -1152,23 +1169,21 @@ void Simulation<T>::add_elastic_energy(Executor* exec, const SimBody<T>& body, c
     list_stepped(L, energy_ids);
     const std::int32_t* ids = energy_ids.data();
     const std::size_t n = energy_ids.size();
-    // The job's list holds the same tets unless a change of resolution is being measured before
-    // prepare(): its rotations are the current ones, taken here in energy_ids' order (the job's list
-    // is in the order its edits left it); else Level::rotation is (written back).
-    if (const LevelJobState<T>* js = job_of(body, L); js && js->ec.listed_rotation[0] && same_runs(js->listed_runs, L.stepped_runs)) {
-      for (int k = 0; k < 4; ++k) {
-        energy_rotation[k].resize(n);
-        for (std::size_t i = 0; i < n; ++i)
-          energy_rotation[k][i] = js->listed_rotation[k][std::size_t(js->list_position[std::size_t(ids[i])])];
-        ec.listed_rotation[k] = energy_rotation[k].data();
-      }
-    }
+    // Their rotations: a listed level's current ones are in its job's list (listed_rotations).
+    if (listed_rotations(body, L, ids, n, energy_rotation))
+      for (int k = 0; k < 4; ++k) ec.listed_rotation[k] = energy_rotation[k].data();
     if (exec)
       exec->parallel_for(n, pass_grain(n, kTetGrain), [&](Range r) { element_energy_corotational_listed(ec, ids, r, out); });
     else
       element_energy_corotational_listed(ec, ids, Range{0, n}, out);
     for (std::size_t i = 0; i < n; ++i) sum += scratch[std::size_t(ids[i])];
     return;
+  }
+  // By runs while its job still steps a list (a change that ended the list, measured before
+  // prepare()): its rotations by tet with the list's laid over.
+  if (const LevelJobState<T>* js = job_of(body, L); L.model == ForceModel::corotational && js && !js->stepped.empty() && js->ec.listed_rotation[0]) {
+    current_rotations(body, L, level_rotation);
+    for (int k = 0; k < 4; ++k) ec.rotation[k] = level_rotation[k].data();
   }
   for (const Range& run : L.stepped_runs) {
     if (exec)
@@ -1318,8 +1333,8 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<
     }
     std::sort(ce.tets.begin(), ce.tets.end());
     // Their elastic energy before (the saved positions) and after, tet by tet: the same kernels,
-    // rest data and warm-start rotations (Level::rotation, written back before the change) as the
-    // whole-body sums, so an unchanged tet would give the same bits.
+    // rest data and warm-start rotations (listed_rotations) as the whole-body sums, so an
+    // unchanged tet would give the same bits.
     if (ce.energy.size() < L.tet_count) ce.energy.resize(L.tet_count);
     double* out = ce.energy.data();
     ElementContext<T> ec = element_context(L);
@@ -1337,6 +1352,9 @@ typename Simulation<T>::ChangeEnergy Simulation<T>::change_energy_added(SimBody<
       const std::int32_t* ids = ce.phase_tets.data();
       const std::size_t n = ce.phase_tets.size();
       if (L.model == ForceModel::corotational) {
+        // A listed level's current rotations are in its job's list (Level::rotation for the others).
+        const bool listed = listed_rotations(body, L, ids, n, energy_rotation);
+        for (int k = 0; k < 4; ++k) ec.listed_rotation[k] = listed ? energy_rotation[k].data() : nullptr;
         element_energy_corotational_listed(ec, ids, Range{0, n}, out);
       } else {
         for (std::size_t i = 0; i < n; ++i) pass(ec, Range{std::size_t(ids[i]), std::size_t(ids[i]) + 1}, out);

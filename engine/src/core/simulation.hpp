@@ -378,7 +378,14 @@ class Simulation {
   mutable std::vector<double> scratch;  // per-tet energies/stresses for reports (not the hot path)
   double period_tick_ = 0;              // s: prepare()'s tick_dt (a change of resolution prepares again with it)
   mutable std::vector<std::int32_t> energy_ids;  // add_elastic_energy: a listed level's stepped tets (grows, stays)
-  mutable AlignedVector<T> energy_rotation[4];    // add_elastic_energy: a listed level's rotations in energy_ids order
+  mutable AlignedVector<T> energy_rotation[4];    // energies over lists of tets: their rotations in the lists' order
+  mutable AlignedVector<T> level_rotation[4];     // add_elastic_energy by runs of a listed level: its rotations by tet
+  // The warm-start rotations of level L's tets ids[0, n), in that order, into out: a listed level's
+  // current ones from its job's list (LevelJobState::list_position), the others' from
+  // Level::rotation, where a tet leaves its rotation when it leaves a list (edit_list). False, and
+  // out untouched, when the level's job is not listed: Level::rotation holds them all.
+  bool listed_rotations(const SimBody<T>& body, const Level<T>& L, const std::int32_t* ids, std::size_t n,
+                        AlignedVector<T> (&out)[4]) const;
   // save_change_energy's record of the state before a change, and change_energy_added's scratch.
   struct ChangeEnergyLevel {
     bool saved = false;                // the level stepped a tet (else all its nodes were inactive)
@@ -410,9 +417,10 @@ class Simulation {
   // read by the slices after them, as without the pack; and every level refreshes its ghosts (they, or their sources, may have been written).
   void levels_given_to_host() { packs_stale_ = ghosts_stale_ = true; }
   // The listed levels' rotations (LevelJobState::listed_rotation) copied to Level::rotation, so that
-  // a pass reading them by tet reads the current ones. O(listed tets); nothing when no tick ran
-  // since the last one (a change of resolution writes them back before it and prepares after it,
-  // in the same tick: 110-150 us again on a level listing 14 000 tets).
+  // whatever reads them by tet reads the current ones. O(listed tets); nothing when no tick ran
+  // since the last one. The step does not need it (energies read a listed level's rotations from
+  // its list: listed_rotations, current_rotations; a tet leaving a list leaves its rotation in
+  // Level::rotation): 110-150 us a change on a level listing 14 000 tets.
   void write_back_rotations();
   // Level::rotation with a listed level's current rotations (its job's list copy) laid over, into
   // out: what a report reading the rotations by tet starts from (the energy, the stresses).
@@ -436,7 +444,7 @@ class Simulation {
   std::vector<ElementPiece<T>> pieces_;
   std::vector<NodePiece<T>> node_pieces_;  // made by prepare(), fixed until the next one
   static void make_list(const Level<T>& L, LevelJobState<T>& js);
-  static void edit_list(const Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]);
+  static void edit_list(Level<T>& L, LevelJobState<T>& js, std::vector<Range> (&scratch)[2]);
   static void bind_list(const Level<T>& L, LevelJobState<T>& js);
   std::vector<Range> list_edit_scratch_[2];  // edit_list's: the runs a change turns off and on
   // Per phase of a tick (TickPhase): its plain and its predicate segments (lists that grow to the
