@@ -148,14 +148,7 @@ double random_changes(const BodyDef& def, int changes, double& worst_total, doub
   worst_total = std::abs(expected / total_mass(a.full(0)) - 1);
   for (int c = 0; c < changes; ++c) {
     const double t = 0.01 * c;
-    const int moves = 1 + int(rng() % 12);
-    for (int k = 0; k < moves; ++k) {
-      const int l = int(rng() % unsigned(n - 1));
-      const auto node = std::int32_t(rng() % a.h.meshes[std::size_t(l)].node_count());
-      // Mostly one level finer or back; sometimes the finest at once.
-      const unsigned pick = rng() % 8;
-      a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : n - 1);
-    }
+    a.set_random_targets(rng, 12);
     std::vector<std::vector<std::uint8_t>> before(std::size_t(n), std::vector<std::uint8_t>{});
     for (int l = 0; l < n; ++l) before[std::size_t(l)] = a.as->stepped_mask(l);
     const ActivationState::Changes ch = a.as->update();
@@ -689,13 +682,7 @@ void edited_lists_are_the_lists_made_afresh(std::uint32_t seed) {
     for (int k = 0; k < 16; ++k, t += tick) ASSERT_TRUE(sim.step(exec, t, tick, where, index++)) << where;
     std::vector<std::vector<std::int32_t>> before(static_cast<std::size_t>(levels));
     for (int l = 0; l < levels; ++l) before[std::size_t(l)] = sim.job_of(sim.bodies[0], sim.bodies[0].levels[std::size_t(l)])->stepped;
-    const int moves = 1 + int(rng() % 6);
-    for (int k = 0; k < moves; ++k) {
-      const int l = int(rng() % unsigned(levels - 1));
-      const auto node = std::int32_t(rng() % a.h.meshes[std::size_t(l)].node_count());
-      const unsigned pick = rng() % 8;
-      a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : levels - 1);
-    }
+    a.set_random_targets(rng, 6);
     const ActivationState::Changes ch = a.as->update();
     keep_momentum(sim.bodies[0], apply_changes(sim.bodies[0], a.ps, *a.as, ch, t));
     sim.prepare(tick);

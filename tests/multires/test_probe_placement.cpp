@@ -78,7 +78,6 @@ template <class T>
 void same_choice_as_the_scan(unsigned seed) {
   Adaptive<T> a(bar());
   SimBody<T>& body = a.body;
-  const int levels = int(a.h.levels());
   // The probes as World::add_probe places them (the scan), with their candidates.
   std::vector<ProbeState> probes;
   std::vector<std::array<double, 3>> points = probe_points(body);
@@ -91,13 +90,7 @@ void same_choice_as_the_scan(unsigned seed) {
   std::mt19937 rng(seed);
   std::size_t by_candidates = 0, outside_by_candidates = 0, compared = 0;
   for (int change = 0; change < 60; ++change) {
-    const int moves = 1 + int(rng() % 10);
-    for (int k = 0; k < moves; ++k) {
-      const int l = int(rng() % unsigned(levels - 1));
-      const auto node = std::int32_t(rng() % a.h.meshes[std::size_t(l)].node_count());
-      const unsigned pick = rng() % 8;
-      a.as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : levels - 1);
-    }
+    a.set_random_targets(rng, 10);
     const ActivationState::Changes ch = a.as->update();
     keep_momentum(body, apply_changes(body, a.ps, *a.as, ch, 0.01 * change));
     for (std::size_t i = 0; i < probes.size(); ++i) {

@@ -3,6 +3,7 @@
 // ActivationState::update(), then apply_changes on `body` with `ps`.
 #pragma once
 #include <memory>
+#include <random>
 #include <vector>
 
 #include "../../engine/src/core/simulation.hpp"
@@ -25,6 +26,19 @@ struct AdaptiveBody {
     body = build_multilevel_body<T>(h, def, 0.5, exec);
     as = std::make_unique<ActivationState>(h, node_targets(h, def.multiresolution.active));
     ps = make_patch_state(body, h, *as);
+  }
+  // 1 to max_moves random nodes of the levels that can split, each given a random target: mostly
+  // one level finer (4 in 8) or its own (3 in 8), sometimes the finest at once. Then update() and
+  // apply_changes make the change.
+  void set_random_targets(std::mt19937& rng, unsigned max_moves) {
+    const int levels = int(h.levels());
+    const int moves = 1 + int(rng() % max_moves);
+    for (int k = 0; k < moves; ++k) {
+      const int l = int(rng() % unsigned(levels - 1));
+      const auto node = std::int32_t(rng() % h.meshes[std::size_t(l)].node_count());
+      const unsigned pick = rng() % 8;
+      as->set_target(l, node, pick < 4 ? l + 1 : pick < 7 ? l : levels - 1);
+    }
   }
   // The body as the full apply makes it from the activation's snapshot now.
   SimBody<T> full(double t) const {
