@@ -743,7 +743,7 @@ void edited_lists_are_the_lists_made_afresh(std::uint32_t seed) {
     if (::testing::Test::HasFailure()) break;
   }
   std::printf("%d listed levels compared, %d of them edited by a change\n", compared, edited);
-  EXPECT_GE(edited, 10);
+  EXPECT_GE(edited, 30);  // 36 and 42 with these seeds: the test keeps exercising edits
 }
 
 TEST(ApplyChanges, EditedListsAreTheListsMadeAfreshDouble) { edited_lists_are_the_lists_made_afresh<double>(21); }

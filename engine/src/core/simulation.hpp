@@ -144,8 +144,8 @@ struct LevelJobState {
   // A level whose stepped tets lie in short runs (a multiresolution level stepping a region of its
   // mesh) steps them from a list instead, in full vector lanes: stepped[i] is its i-th stepped tet
   // (Simulation::prepare decides; empty: by runs). Made in ascending order; a change of resolution
-  // then edits it in place (Simulation::edit_list): a tet no longer stepped takes the list's last
-  // tet into its position, a newly stepped one is appended. list_position[t] is tet t's position
+  // then edits it in place (Simulation::edit_list): a tet no longer stepped gives its position to
+  // the list's last tet, a newly stepped one is appended. list_position[t] is tet t's position
   // (-1: not listed); listed_runs are the level's stepped runs the list holds (Level::stepped_runs
   // when it was made or last edited); listed_level the level's identity (its Level::tet[0] data).
   ListedElementPass<T> listed_pass = nullptr;
