@@ -459,7 +459,7 @@ void Simulation<T>::prepare(double tick_dt) {
   constexpr std::size_t kNodeRunGap = 8;  // nodes: a gap's gather costs about what a piece does
   node_pieces_.clear();
   for (LevelJobState<T>& js : job_state_) {
-    const Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
+    Level<T>& L = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
     js.first_node_piece = node_pieces_.size();
     // A level that steps no tet has only inactive nodes (ApplyChanges' random changes check it):
     // no piece, and its 10 700 states (the 50k organ's idle finest level) are not read.
@@ -500,10 +500,9 @@ void Simulation<T>::prepare(double tick_dt) {
         js.gather_corner_offset = std::move(p.gather_corner_offset);
       }
     }
-    Level<T>& level = bodies[std::size_t(js.body)].levels[std::size_t(js.level)];
     if (js.listed_pass) {  // a listed level (its job state at its final address now)
       if (was_listed)
-        edit_list(level, js, list_edit_scratch_);
+        edit_list(L, js, list_edit_scratch_);
       else
         make_list(L, js);
       bind_list(L, js);
@@ -511,7 +510,7 @@ void Simulation<T>::prepare(double tick_dt) {
       // By runs: its arrays kept for a later list, its tets' rotations where the passes read them.
       if (was_listed && !js.listed_rotation[0].empty())
         for (int k = 0; k < 4; ++k)
-          for (std::size_t i = 0; i < js.stepped.size(); ++i) level.rotation[k][std::size_t(js.stepped[i])] = js.listed_rotation[k][i];
+          for (std::size_t i = 0; i < js.stepped.size(); ++i) L.rotation[k][std::size_t(js.stepped[i])] = js.listed_rotation[k][i];
       js.stepped.clear();
       // A level of several: the memory of its list taken and touched now, at load, rather than by
       // the change of resolution that first lists it: its gather entries, and room for a list of
